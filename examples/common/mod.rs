@@ -1,0 +1,139 @@
+//! Helpers shared by the rendering examples: an orbit camera and a "run N frames, save a
+//! screenshot, exit" switch for smoke tests and pictures.
+//!
+//! Environment variables:
+//! - `DRAPE_FRAMES=N`: after N rendered frames, save a screenshot and exit;
+//! - `DRAPE_SCREENSHOT=path.png`: where to save it (default `screenshot.png`).
+
+use bevy::app::AppExit;
+use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
+use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+
+/// Adds the orbit camera controls and the screenshot-and-exit switch.
+pub struct ExamplePlugin;
+
+impl Plugin for ExamplePlugin {
+    fn build(&self, app: &mut App) {
+        let frames = std::env::var("DRAPE_FRAMES")
+            .ok()
+            .and_then(|v| v.parse::<u32>().ok());
+        let path = std::env::var("DRAPE_SCREENSHOT").unwrap_or_else(|_| "screenshot.png".into());
+        app.insert_resource(SmokeRun {
+            frames,
+            path,
+            frame: 0,
+        })
+        .add_systems(Update, (orbit_camera, smoke_run));
+    }
+}
+
+/// A camera that orbits `focus`: drag with the left or right mouse button to turn, scroll to
+/// zoom.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct OrbitCamera {
+    /// The point looked at.
+    pub focus: Vec3,
+    /// Distance from the focus, metres.
+    pub radius: f32,
+    /// Angle about the vertical, radians.
+    pub yaw: f32,
+    /// Angle above the horizontal, radians.
+    pub pitch: f32,
+}
+
+impl OrbitCamera {
+    /// The camera transform for this orbit.
+    pub fn transform(&self) -> Transform {
+        let rotation = Quat::from_euler(EulerRot::YXZ, self.yaw, -self.pitch, 0.0);
+        let position = self.focus + rotation * Vec3::Z * self.radius;
+        Transform::from_translation(position).looking_at(self.focus, Vec3::Y)
+    }
+}
+
+fn orbit_camera(
+    mut cameras: Query<(&mut OrbitCamera, &mut Transform)>,
+    buttons: Res<ButtonInput<MouseButton>>,
+    motion: Res<AccumulatedMouseMotion>,
+    scroll: Res<AccumulatedMouseScroll>,
+) {
+    for (mut orbit, mut transform) in &mut cameras {
+        if buttons.any_pressed([MouseButton::Left, MouseButton::Right]) {
+            orbit.yaw -= motion.delta.x * 0.005;
+            orbit.pitch = (orbit.pitch + motion.delta.y * 0.005).clamp(-1.5, 1.5);
+        }
+        orbit.radius = (orbit.radius * (1.0 - scroll.delta.y * 0.1)).clamp(0.3, 50.0);
+        *transform = orbit.transform();
+    }
+}
+
+#[derive(Resource)]
+struct SmokeRun {
+    frames: Option<u32>,
+    path: String,
+    frame: u32,
+}
+
+fn smoke_run(mut commands: Commands, mut run: ResMut<SmokeRun>, mut exit: MessageWriter<AppExit>) {
+    let Some(frames) = run.frames else {
+        return;
+    };
+    run.frame += 1;
+    if run.frame == frames {
+        info!("saving a screenshot to {}", run.path);
+        commands
+            .spawn(Screenshot::primary_window())
+            .observe(save_to_disk(run.path.clone()));
+    }
+    // Saving takes a few frames.
+    if run.frame == frames + 10 {
+        exit.write(AppExit::Success);
+    }
+}
+
+/// A ground square, a light and an orbit camera looking at `focus`.
+pub fn spawn_stage(
+    commands: &mut Commands,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+    focus: Vec3,
+    radius: f32,
+) {
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(20.0, 20.0))),
+        MeshMaterial3d(materials.add(StandardMaterial {
+            base_color: Color::srgb(0.55, 0.58, 0.52),
+            perceptual_roughness: 0.9,
+            ..default()
+        })),
+    ));
+    commands.spawn((
+        DirectionalLight {
+            illuminance: 9000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(3.0, 6.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    let orbit = OrbitCamera {
+        focus,
+        radius,
+        yaw: 0.6,
+        pitch: 0.35,
+    };
+    commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// A double-sided cloth material.
+pub fn cloth_material(
+    materials: &mut Assets<StandardMaterial>,
+    color: Color,
+) -> Handle<StandardMaterial> {
+    materials.add(StandardMaterial {
+        base_color: color,
+        perceptual_roughness: 0.8,
+        double_sided: true,
+        cull_mode: None,
+        ..default()
+    })
+}

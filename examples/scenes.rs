@@ -1,0 +1,97 @@
+//! Runs a standard scene headless and prints one JSON line.
+//!
+//! ```text
+//! cargo run --release --example scenes -- s1 --n 64 [--substeps 8] [--iterations 1]
+//!     [--method xpbd|pbd] [--stiffness 0.5] [--stretch-compliance 0] [--bend-compliance 500]
+//!     [--no-tethers] [--runs 3] [--frames 120]
+//! ```
+//!
+//! `ms_per_frame` is the median over all frames of all runs (model build excluded); the other
+//! figures come from the last run (every run is identical: the solver is deterministic).
+
+use bevy_drape::cloth::{SolverMethod, SolverSettings};
+use bevy_drape::scenes::{HangingCloth, SceneRun, median};
+
+fn main() {
+    if let Err(message) = run() {
+        eprintln!("scenes: {message}");
+        std::process::exit(2);
+    }
+}
+
+fn run() -> Result<(), String> {
+    let mut args = std::env::args().skip(1);
+    let scene = args.next().ok_or("missing scene name (s1)")?;
+    let mut n = 32u32;
+    let mut runs = 3u32;
+    let mut frames = 120u32;
+    let mut settings = SolverSettings::default();
+    let mut method = "xpbd".to_string();
+    let mut stiffness = 1.0f32;
+    while let Some(flag) = args.next() {
+        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--n" => n = parse(&value()?)?,
+            "--runs" => runs = parse(&value()?)?,
+            "--frames" => frames = parse(&value()?)?,
+            "--substeps" => settings.substeps = parse(&value()?)?,
+            "--iterations" => settings.iterations = parse(&value()?)?,
+            "--stretch-compliance" => settings.stretch_compliance = parse(&value()?)?,
+            "--bend-compliance" => settings.bend_compliance = parse(&value()?)?,
+            "--damping" => settings.damping = parse(&value()?)?,
+            "--stiffness" => stiffness = parse(&value()?)?,
+            "--method" => method = value()?,
+            "--no-tethers" => settings.long_range_attachments = false,
+            other => return Err(format!("unknown option {other}")),
+        }
+    }
+    settings.method = match method.as_str() {
+        "xpbd" => SolverMethod::Xpbd,
+        "pbd" => SolverMethod::Pbd { stiffness },
+        other => return Err(format!("unknown method {other} (xpbd, pbd)")),
+    };
+    settings.validate().map_err(|e| e.to_string())?;
+    if n < 2 {
+        return Err("--n must be at least 2".into());
+    }
+    match scene.as_str() {
+        "s1" => {
+            let scene = HangingCloth { n };
+            let mut all_frames = Vec::new();
+            let mut last: Option<SceneRun> = None;
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames);
+                all_frames.extend_from_slice(&run.frame_seconds);
+                last = Some(run);
+            }
+            let run = last.expect("at least one run");
+            let vec = |v: bevy::math::Vec3| format!("[{:.5},{:.5},{:.5}]", v.x, v.y, v.z);
+            let corner: Vec<String> = run.samples.iter().map(|s| vec(s.corner)).collect();
+            let center: Vec<String> = run.samples.iter().map(|s| vec(s.center)).collect();
+            let times: Vec<String> = run
+                .samples
+                .iter()
+                .map(|s| format!("{:.3}", s.time))
+                .collect();
+            println!(
+                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"tethers\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
+                settings.substeps,
+                settings.iterations,
+                settings.long_range_attachments,
+                median(&all_frames) * 1e3,
+                run.max_strain,
+                run.mean_strain,
+                times.join(","),
+                corner.join(","),
+                center.join(","),
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!("unknown scene {other} (s1)")),
+    }
+}
+
+fn parse<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.parse().map_err(|_| format!("cannot parse {s:?}"))
+}

@@ -1,0 +1,67 @@
+//! Between Bevy's [`Mesh`] asset and the cloth core: reading triangles out of a mesh, building
+//! the grid as a mesh, and writing positions and normals back.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::math::Vec3;
+use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+
+use super::model::GridDesc;
+use crate::error::ClothError;
+
+/// The vertex positions and triangle indices of a triangle-list mesh.
+pub fn mesh_triangles(mesh: &Mesh) -> Result<(Vec<Vec3>, Vec<u32>), ClothError> {
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return Err(ClothError::NotTriangleList);
+    }
+    let positions = match mesh.try_attribute_option(Mesh::ATTRIBUTE_POSITION) {
+        Err(_) => return Err(ClothError::MeshDataUnavailable),
+        Ok(Some(VertexAttributeValues::Float32x3(p))) => {
+            p.iter().map(|&p| Vec3::from_array(p)).collect::<Vec<_>>()
+        }
+        Ok(_) => return Err(ClothError::MissingPositions),
+    };
+    let indices = match mesh.try_indices_option() {
+        Err(_) => return Err(ClothError::MeshDataUnavailable),
+        Ok(Some(Indices::U16(i))) => i.iter().map(|&i| i as u32).collect(),
+        Ok(Some(Indices::U32(i))) => i.clone(),
+        // A non-indexed triangle list: every three vertices are a triangle.
+        Ok(None) => (0..positions.len() as u32).collect(),
+    };
+    Ok((positions, indices))
+}
+
+/// The grid of `desc` as a mesh with positions, normals, texture coordinates and indices,
+/// kept in the main world so the cloth can write into it.
+pub fn grid_mesh(desc: &GridDesc) -> Mesh {
+    let grid = desc.mesh();
+    let normal = (desc.orientation * Vec3::Y).to_array();
+    let positions: Vec<[f32; 3]> = grid.positions.iter().map(|p| p.to_array()).collect();
+    let normals = vec![normal; positions.len()];
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, grid.uvs)
+    .with_inserted_indices(Indices::U32(grid.indices))
+}
+
+/// Area-weighted vertex normals of `triangles` over `positions`, written into `normals`
+/// (resized to match). Vertices in no triangle get +Y.
+pub fn compute_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]], normals: &mut Vec<Vec3>) {
+    normals.clear();
+    normals.resize(positions.len(), Vec3::ZERO);
+    for &[a, b, c] in triangles {
+        let pa = Vec3::from_array(positions[a as usize]);
+        let pb = Vec3::from_array(positions[b as usize]);
+        let pc = Vec3::from_array(positions[c as usize]);
+        let n = (pb - pa).cross(pc - pa);
+        normals[a as usize] += n;
+        normals[b as usize] += n;
+        normals[c as usize] += n;
+    }
+    for n in normals.iter_mut() {
+        *n = n.normalize_or(Vec3::Y);
+    }
+}

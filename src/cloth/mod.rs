@@ -1,0 +1,17 @@
+//! The cloth core: model, state, constraints and the XPBD step, free of ECS types, and the
+//! Bevy plugin that drives it ([`plugin`]).
+
+pub mod constraints;
+pub mod damping;
+pub mod mesh;
+pub mod model;
+pub mod plugin;
+pub mod settings;
+pub mod sim;
+pub mod state;
+
+pub use constraints::{Plane, Tether};
+pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
+pub use settings::{DampingMode, SolverMethod, SolverSettings};
+pub use sim::{ClothSim, Pin, StrainStats};
+pub use state::ClothState;

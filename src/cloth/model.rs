@@ -1,0 +1,411 @@
+//! Cloth topology, rest state and masses: everything about a cloth that does not change while
+//! it moves.
+//!
+//! A [`ClothModel`] is built once, from a triangle mesh ([`ClothModel::from_triangles`]), from
+//! the grid generator ([`ClothModel::grid`], see [`GridDesc`]) or from raw particles joined by
+//! distance constraints ([`ClothModel::from_particles`], for ropes, chains and tests).
+//!
+//! - Particle mass = areal density x one third of the area of every triangle around the
+//!   particle, plus an optional point mass.
+//! - Every edge appears once ([`Edge`]), whichever triangles share it.
+//! - Every pair of triangles that share an edge gives one [`BendingPair`], found once.
+//!
+//! Building is deterministic (sorting, no hash maps), so two builds of the same input give the
+//! same constraint order and therefore the same simulation.
+
+use bevy::math::{Quat, UVec2, Vec2, Vec3};
+
+use crate::error::{ClothError, ClothWarning};
+
+/// What an edge stands for. The solvers constrain every edge; strain is measured on the
+/// structural ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EdgeKind {
+    /// A warp or weft thread: a grid edge, or any edge of a general triangle mesh.
+    Structural,
+    /// A diagonal of a grid quad.
+    Shear,
+}
+
+/// A distance constraint between two particles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Edge {
+    /// The two particles, smaller index first.
+    pub particles: [u32; 2],
+    /// Rest length, metres.
+    pub rest_length: f32,
+    /// What the edge stands for.
+    pub kind: EdgeKind,
+}
+
+/// Two triangles sharing an edge: `(x0, x1, x2)` and `(x1, x0, x3)`, where `x0`-`x1` is the
+/// shared edge and `x2`, `x3` are the opposite vertices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BendingPair {
+    /// `[x0, x1, x2, x3]`.
+    pub particles: [u32; 4],
+    /// The signed dihedral angle of the rest shape, radians (0 for a flat rest shape).
+    pub rest_angle: f32,
+}
+
+/// The parts of a cloth that do not change while it moves.
+#[derive(Clone, Debug)]
+pub struct ClothModel {
+    /// Rest positions, metres.
+    pub rest_positions: Vec<Vec3>,
+    /// Triangles, counter-clockwise seen from the front. Empty for a model built from
+    /// particles.
+    pub triangles: Vec<[u32; 3]>,
+    /// De-duplicated edges.
+    pub edges: Vec<Edge>,
+    /// One bending pair per interior (manifold) edge.
+    pub bending_pairs: Vec<BendingPair>,
+    /// Per particle, one third of the area of the triangles around it, m^2.
+    pub area_shares: Vec<f32>,
+    /// Per particle, a mass added to the area mass, kg.
+    pub point_masses: Vec<f32>,
+    /// Areal density, kg/m^2.
+    pub density: f32,
+    /// What was left out while building.
+    pub warnings: Vec<ClothWarning>,
+}
+
+/// A rectangular grid of particles, the cloth of the standard scenes.
+///
+/// Vertex `(i, j)` (with `i < vertices.x`, `j < vertices.y`) has index `j * vertices.x + i`
+/// and sits at `origin + orientation * (i dx, 0, j dz)` with `dx = size.x / (vertices.x - 1)`
+/// and `dz = size.y / (vertices.y - 1)`: the grid is laid out in the local XZ plane, facing
+/// +Y, then rotated and moved. Quads are split along alternating diagonals, so the cloth has
+/// no preferred shear direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridDesc {
+    /// Side lengths along the grid's local X and Z, metres.
+    pub size: Vec2,
+    /// Vertices along each side (at least 2 each).
+    pub vertices: UVec2,
+    /// Rotation of the grid; identity lays it flat, facing up.
+    pub orientation: Quat,
+    /// Position of vertex `(0, 0)`.
+    pub origin: Vec3,
+}
+
+impl GridDesc {
+    /// A `size` x `size` square with `n` x `n` vertices, flat, facing up, vertex `(0, 0)` at
+    /// `origin`.
+    pub fn square(size: f32, n: u32, origin: Vec3) -> Self {
+        Self {
+            size: Vec2::splat(size),
+            vertices: UVec2::splat(n),
+            orientation: Quat::IDENTITY,
+            origin,
+        }
+    }
+
+    /// The index of vertex `(i, j)`.
+    pub fn index(&self, i: u32, j: u32) -> u32 {
+        j * self.vertices.x + i
+    }
+
+    /// Vertex positions, triangle indices and texture coordinates of the grid.
+    pub fn mesh(&self) -> GridMesh {
+        let nx = self.vertices.x.max(2);
+        let nz = self.vertices.y.max(2);
+        let dx = self.size.x / (nx - 1) as f32;
+        let dz = self.size.y / (nz - 1) as f32;
+        let mut positions = Vec::with_capacity((nx * nz) as usize);
+        let mut uvs = Vec::with_capacity((nx * nz) as usize);
+        for j in 0..nz {
+            for i in 0..nx {
+                let local = Vec3::new(i as f32 * dx, 0.0, j as f32 * dz);
+                positions.push(self.origin + self.orientation * local);
+                uvs.push([i as f32 / (nx - 1) as f32, j as f32 / (nz - 1) as f32]);
+            }
+        }
+        let mut indices = Vec::with_capacity(((nx - 1) * (nz - 1) * 6) as usize);
+        let mut shear = Vec::with_capacity(((nx - 1) * (nz - 1)) as usize);
+        for j in 0..nz - 1 {
+            for i in 0..nx - 1 {
+                let p00 = j * nx + i;
+                let p10 = p00 + 1;
+                let p01 = p00 + nx;
+                let p11 = p01 + 1;
+                if (i + j) % 2 == 0 {
+                    indices.extend_from_slice(&[p00, p01, p11, p00, p11, p10]);
+                    shear.push([p00, p11]);
+                } else {
+                    indices.extend_from_slice(&[p00, p01, p10, p10, p01, p11]);
+                    shear.push([p10.min(p01), p10.max(p01)]);
+                }
+            }
+        }
+        GridMesh {
+            positions,
+            indices,
+            uvs,
+            shear_edges: shear,
+        }
+    }
+}
+
+/// The output of [`GridDesc::mesh`].
+#[derive(Clone, Debug)]
+pub struct GridMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Triangle indices, counter-clockwise seen from the front.
+    pub indices: Vec<u32>,
+    /// Texture coordinates in `[0, 1]^2`.
+    pub uvs: Vec<[f32; 2]>,
+    /// The quad diagonals, smaller index first.
+    pub shear_edges: Vec<[u32; 2]>,
+}
+
+fn check_positions(positions: &[Vec3]) -> Result<(), ClothError> {
+    match positions.iter().position(|p| !p.is_finite()) {
+        Some(vertex) => Err(ClothError::NonFinitePosition { vertex }),
+        None => Ok(()),
+    }
+}
+
+fn check_density(density: f32) -> Result<(), ClothError> {
+    if density.is_finite() && density > 0.0 {
+        Ok(())
+    } else {
+        Err(ClothError::InvalidDensity(density))
+    }
+}
+
+/// Twice the area below which a triangle counts as degenerate, relative to its longest edge
+/// squared.
+const DEGENERATE_RELATIVE_AREA: f32 = 1e-6;
+
+impl ClothModel {
+    /// Builds a cloth from a triangle mesh: `indices` holds three vertex indices per triangle.
+    ///
+    /// Errors: no triangles, an index count that is not a multiple of 3, an index out of
+    /// range, a non-finite position, a density that is not finite and positive. Zero-area
+    /// triangles are dropped, non-manifold edges get no bending constraint and vertices in no
+    /// triangle are held in place; each is recorded in [`ClothModel::warnings`].
+    pub fn from_triangles(
+        positions: &[Vec3],
+        indices: &[u32],
+        density: f32,
+    ) -> Result<Self, ClothError> {
+        check_density(density)?;
+        check_positions(positions)?;
+        if !indices.len().is_multiple_of(3) {
+            return Err(ClothError::IndexCountNotTriangles(indices.len()));
+        }
+        if let Some(&index) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(ClothError::IndexOutOfRange {
+                index,
+                vertex_count: positions.len(),
+            });
+        }
+        let mut warnings = Vec::new();
+        let mut triangles = Vec::with_capacity(indices.len() / 3);
+        let mut area_shares = vec![0.0; positions.len()];
+        for (t, tri) in indices.chunks_exact(3).enumerate() {
+            let [a, b, c] = [tri[0], tri[1], tri[2]];
+            let (pa, pb, pc) = (
+                positions[a as usize],
+                positions[b as usize],
+                positions[c as usize],
+            );
+            let twice_area = (pb - pa).cross(pc - pa).length();
+            let longest = (pb - pa)
+                .length_squared()
+                .max((pc - pb).length_squared())
+                .max((pa - pc).length_squared());
+            if a == b || b == c || a == c || twice_area <= DEGENERATE_RELATIVE_AREA * longest {
+                warnings.push(ClothWarning::DegenerateTriangle { triangle: t });
+                continue;
+            }
+            for v in [a, b, c] {
+                area_shares[v as usize] += twice_area / 6.0;
+            }
+            triangles.push([a, b, c]);
+        }
+        if triangles.is_empty() {
+            return Err(ClothError::NoTriangles);
+        }
+        let isolated = area_shares.iter().filter(|&&s| s == 0.0).count();
+        if isolated > 0 {
+            warnings.push(ClothWarning::IsolatedVertices { count: isolated });
+        }
+
+        // Every (edge, triangle) incidence, sorted by edge: runs of equal keys are one edge.
+        let mut incidences: Vec<([u32; 2], [u32; 3])> = Vec::with_capacity(triangles.len() * 3);
+        for &[a, b, c] in &triangles {
+            for (p, q, o) in [(a, b, c), (b, c, a), (c, a, b)] {
+                incidences.push(([p.min(q), p.max(q)], [p, q, o]));
+            }
+        }
+        incidences.sort_unstable_by_key(|&(key, oriented)| (key, oriented));
+        let mut edges = Vec::with_capacity(incidences.len() / 2 + 1);
+        let mut bending_pairs = Vec::with_capacity(incidences.len() / 2);
+        let mut start = 0;
+        while start < incidences.len() {
+            let key = incidences[start].0;
+            let mut end = start + 1;
+            while end < incidences.len() && incidences[end].0 == key {
+                end += 1;
+            }
+            let [a, b] = key;
+            edges.push(Edge {
+                particles: key,
+                rest_length: positions[a as usize].distance(positions[b as usize]),
+                kind: EdgeKind::Structural,
+            });
+            match end - start {
+                1 => {}
+                2 => {
+                    let [p, q, o1] = incidences[start].1;
+                    let o2 = incidences[start + 1].1[2];
+                    let particles = [p, q, o1, o2];
+                    let x = particles.map(|i| positions[i as usize]);
+                    let rest_angle = super::constraints::dihedral_angle(
+                        x[0].into(),
+                        x[1].into(),
+                        x[2].into(),
+                        x[3].into(),
+                    )
+                    .unwrap_or(0.0);
+                    bending_pairs.push(BendingPair {
+                        particles,
+                        rest_angle,
+                    });
+                }
+                n => warnings.push(ClothWarning::NonManifoldEdge { a, b, triangles: n }),
+            }
+            start = end;
+        }
+
+        Ok(Self {
+            rest_positions: positions.to_vec(),
+            triangles,
+            edges,
+            bending_pairs,
+            area_shares,
+            point_masses: vec![0.0; positions.len()],
+            density,
+            warnings,
+        })
+    }
+
+    /// Builds the grid cloth of [`GridDesc`]: grid edges are [`EdgeKind::Structural`], quad
+    /// diagonals [`EdgeKind::Shear`].
+    pub fn grid(desc: &GridDesc, density: f32) -> Result<Self, ClothError> {
+        let mesh = desc.mesh();
+        let mut model = Self::from_triangles(&mesh.positions, &mesh.indices, density)?;
+        // Both lists are sorted by (smaller, larger) index, so one merge pass marks the shear
+        // edges.
+        let mut shear = mesh.shear_edges;
+        shear.sort_unstable();
+        let mut k = 0;
+        for edge in &mut model.edges {
+            while k < shear.len() && shear[k] < edge.particles {
+                k += 1;
+            }
+            if k < shear.len() && shear[k] == edge.particles {
+                edge.kind = EdgeKind::Shear;
+            }
+        }
+        Ok(model)
+    }
+
+    /// Builds a model of point masses joined by distance constraints (ropes, chains, tests):
+    /// no triangles, no bending, rest lengths from `positions`. A particle of mass 0 is held in
+    /// place.
+    pub fn from_particles(
+        positions: &[Vec3],
+        masses: &[f32],
+        constraints: &[[u32; 2]],
+    ) -> Result<Self, ClothError> {
+        check_positions(positions)?;
+        let mut point_masses = vec![0.0; positions.len()];
+        for (particle, (&m, slot)) in masses.iter().zip(&mut point_masses).enumerate() {
+            if !(m.is_finite() && m >= 0.0) {
+                return Err(ClothError::InvalidMass { particle, mass: m });
+            }
+            *slot = m;
+        }
+        let mut edges = Vec::with_capacity(constraints.len());
+        for (constraint, &[a, b]) in constraints.iter().enumerate() {
+            for index in [a, b] {
+                if index as usize >= positions.len() {
+                    return Err(ClothError::IndexOutOfRange {
+                        index,
+                        vertex_count: positions.len(),
+                    });
+                }
+            }
+            let rest_length = positions[a as usize].distance(positions[b as usize]);
+            if a == b || rest_length <= 0.0 {
+                return Err(ClothError::DegenerateConstraint { constraint, a, b });
+            }
+            edges.push(Edge {
+                particles: [a.min(b), a.max(b)],
+                rest_length,
+                kind: EdgeKind::Structural,
+            });
+        }
+        Ok(Self {
+            rest_positions: positions.to_vec(),
+            triangles: Vec::new(),
+            edges,
+            bending_pairs: Vec::new(),
+            area_shares: vec![0.0; positions.len()],
+            point_masses,
+            density: 1.0,
+            warnings: Vec::new(),
+        })
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.rest_positions.len()
+    }
+
+    /// Mass of particle `i`, kg: density x area share + point mass.
+    pub fn mass(&self, i: usize) -> f32 {
+        self.density * self.area_shares[i] + self.point_masses[i]
+    }
+
+    /// Total mass, kg.
+    pub fn total_mass(&self) -> f32 {
+        (0..self.particle_count()).map(|i| self.mass(i)).sum()
+    }
+
+    /// Total area of the triangles, m^2.
+    pub fn area(&self) -> f32 {
+        self.area_shares.iter().sum()
+    }
+
+    /// Changes the areal density (kg/m^2); masses follow.
+    pub fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
+        check_density(density)?;
+        self.density = density;
+        Ok(())
+    }
+
+    /// Adds `mass` kg to particle `i`.
+    pub fn add_point_mass(&mut self, i: u32, mass: f32) -> Result<(), ClothError> {
+        let vertex_count = self.particle_count();
+        let slot = self
+            .point_masses
+            .get_mut(i as usize)
+            .ok_or(ClothError::VertexOutOfRange {
+                vertex: i,
+                vertex_count,
+            })?;
+        if !(mass.is_finite() && *slot + mass >= 0.0) {
+            return Err(ClothError::InvalidMass {
+                particle: i as usize,
+                mass,
+            });
+        }
+        *slot += mass;
+        Ok(())
+    }
+}

@@ -1,0 +1,393 @@
+//! The Bevy side of the cloth: components, resources and the thin systems that build, step and
+//! draw [`ClothSim`]s.
+
+use bevy::app::{App, Plugin, PostUpdate};
+use bevy::asset::Assets;
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::{error, warn};
+use bevy::math::{Vec3, Vec3A};
+use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
+
+use super::constraints::Plane;
+use super::mesh::{compute_normals, mesh_triangles};
+use super::model::ClothModel;
+use super::settings::SolverSettings;
+use super::sim::ClothSim;
+use crate::error::ClothError;
+use crate::schedule::DrapeSystems;
+
+/// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world
+/// space, through the entity's transform) in the first fixed step after the mesh is loaded;
+/// the entity then gets a [`ClothSimulation`] and a mesh of its own, which the cloth writes
+/// into every frame.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// fn spawn(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>) {
+///     let grid = GridDesc::square(1.0, 32, Vec3::ZERO);
+///     commands.spawn((
+///         Mesh3d(meshes.add(grid_mesh(&grid))),
+///         Cloth::pinned([grid.index(0, 0), grid.index(31, 0)]),
+///         Transform::from_xyz(0.0, 1.0, 0.0),
+///     ));
+/// }
+/// ```
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+#[require(Transform)]
+pub struct Cloth {
+    /// Vertices held at their rest position relative to this entity's transform: moving the
+    /// entity moves them.
+    pub pinned_vertices: Vec<u32>,
+    /// Vertices held at a point fixed to another entity.
+    pub attachments: Vec<VertexAttachment>,
+}
+
+impl Cloth {
+    /// A cloth with the given vertices pinned.
+    pub fn pinned(vertices: impl IntoIterator<Item = u32>) -> Self {
+        Self {
+            pinned_vertices: vertices.into_iter().collect(),
+            attachments: Vec::new(),
+        }
+    }
+
+    /// Adds an attachment.
+    pub fn with_attachment(mut self, attachment: VertexAttachment) -> Self {
+        self.attachments.push(attachment);
+        self
+    }
+}
+
+/// A cloth vertex held at `offset` in the local frame of the entity `target`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexAttachment {
+    /// The cloth vertex.
+    pub vertex: u32,
+    /// The entity it hangs from (any entity with a [`Transform`], a bone for instance).
+    pub target: Entity,
+    /// Where on that entity, in its local frame, metres.
+    pub offset: Vec3,
+}
+
+/// Cloth parameters of one cloth entity. A cloth without this component uses
+/// [`DefaultClothSettings`].
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct ClothSettings {
+    /// Areal density, kg/m^2. Default: `0.1`.
+    pub density: f32,
+    /// Solver parameters (substeps, iterations, compliances, damping, thickness, friction).
+    pub solver: SolverSettings,
+    /// Height of a ground plane (`y >= ground`), metres, if any. Default: `None`.
+    pub ground: Option<f32>,
+    /// An axis-aligned box `(min, max)` the particles stay inside, if any. Default: `None`.
+    pub container: Option<(Vec3, Vec3)>,
+}
+
+impl Default for ClothSettings {
+    fn default() -> Self {
+        Self {
+            density: 0.1,
+            solver: SolverSettings::default(),
+            ground: None,
+            container: None,
+        }
+    }
+}
+
+impl ClothSettings {
+    fn planes(&self, out: &mut Vec<Plane>) {
+        out.clear();
+        if let Some(height) = self.ground {
+            out.push(Plane::ground(height));
+        }
+        if let Some((min, max)) = self.container {
+            out.extend(Plane::box_walls(min.into(), max.into()));
+        }
+    }
+}
+
+/// The [`ClothSettings`] of every cloth that has none of its own.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct DefaultClothSettings(pub ClothSettings);
+
+/// World-wide simulation parameters.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct DrapeSettings {
+    /// Gravity, m/s^2. Default: `(0, -9.81, 0)`.
+    pub gravity: Vec3,
+    /// When true, no cloth is stepped. Default: `false`.
+    pub paused: bool,
+}
+
+impl Default for DrapeSettings {
+    fn default() -> Self {
+        Self {
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            paused: false,
+        }
+    }
+}
+
+/// The simulation of one cloth entity, added by `bevy_drape` once its mesh is loaded.
+#[derive(Component, Debug)]
+pub struct ClothSimulation {
+    sim: ClothSim,
+    /// Mesh-space rest positions, for pins that follow the entity.
+    local_rest: Vec<Vec3>,
+    /// Positions at the end of the previous fixed step, for interpolation.
+    render_from: Vec<Vec3A>,
+    normals: Vec<Vec3>,
+    planes: Vec<Plane>,
+    warned_invalid_settings: bool,
+}
+
+impl ClothSimulation {
+    /// The simulated cloth.
+    pub fn sim(&self) -> &ClothSim {
+        &self.sim
+    }
+
+    /// The simulated cloth, to read or change its state directly.
+    pub fn sim_mut(&mut self) -> &mut ClothSim {
+        &mut self.sim
+    }
+}
+
+/// Added instead of a [`ClothSimulation`] when a cloth cannot be built; the error is also
+/// logged with the entity.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct ClothBuildError(pub ClothError);
+
+/// Steps every [`Cloth`] in the drape schedule and writes it into its mesh every frame.
+pub struct ClothPlugin {
+    /// The schedule the cloth steps in.
+    pub schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl Default for ClothPlugin {
+    fn default() -> Self {
+        Self {
+            schedule: FixedPostUpdate.intern(),
+        }
+    }
+}
+
+impl Plugin for ClothPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<DefaultClothSettings>()
+            .init_resource::<DrapeSettings>()
+            .add_systems(self.schedule, build_cloths.in_set(DrapeSystems::Prepare))
+            .add_systems(self.schedule, step_cloths.in_set(DrapeSystems::Step))
+            .add_systems(
+                PostUpdate,
+                write_back_meshes.in_set(DrapeSystems::Writeback),
+            );
+    }
+}
+
+fn build_simulation(
+    mesh: &Mesh,
+    cloth: &Cloth,
+    global: &GlobalTransform,
+    density: f32,
+) -> Result<(ClothSimulation, Vec<String>), ClothError> {
+    let (local, indices) = mesh_triangles(mesh)?;
+    let world: Vec<Vec3> = local.iter().map(|&p| global.transform_point(p)).collect();
+    let model = ClothModel::from_triangles(&world, &indices, density)?;
+    let warnings = model.warnings.iter().map(ToString::to_string).collect();
+    let mut sim = ClothSim::new(model);
+    let pinned: Vec<u32> = cloth
+        .pinned_vertices
+        .iter()
+        .copied()
+        .chain(cloth.attachments.iter().map(|a| a.vertex))
+        .collect();
+    sim.set_pins(&pinned)?;
+    let render_from = sim.state().positions.clone();
+    Ok((
+        ClothSimulation {
+            sim,
+            local_rest: local,
+            render_from,
+            normals: Vec::new(),
+            planes: Vec::new(),
+            warned_invalid_settings: false,
+        },
+        warnings,
+    ))
+}
+
+/// Cloths not built yet.
+type NewCloths<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Cloth,
+        &'static Mesh3d,
+        Option<&'static ClothSettings>,
+    ),
+    (Without<ClothSimulation>, Without<ClothBuildError>),
+>;
+
+/// Builds the simulation of every new cloth whose mesh is loaded.
+fn build_cloths(
+    mut commands: Commands,
+    new_cloths: NewCloths,
+    mut meshes: ResMut<Assets<Mesh>>,
+    defaults: Res<DefaultClothSettings>,
+    transforms: TransformHelper,
+) {
+    for (entity, cloth, mesh3d, settings) in &new_cloths {
+        let Some(mesh) = meshes.get(&mesh3d.0) else {
+            continue;
+        };
+        let density = settings.unwrap_or(&defaults.0).density;
+        let global = transforms
+            .compute_global_transform(entity)
+            .unwrap_or_default();
+        match build_simulation(mesh, cloth, &global, density) {
+            Ok((simulation, warnings)) => {
+                for warning in warnings {
+                    warn!("cloth {entity}: {warning}");
+                }
+                // The cloth writes into its mesh, so it gets a copy of its own.
+                let own_mesh = mesh.clone();
+                let own_mesh = meshes.add(own_mesh);
+                commands
+                    .entity(entity)
+                    .insert((simulation, Mesh3d(own_mesh)));
+            }
+            Err(err) => {
+                error!("cloth {entity} cannot be simulated: {err}");
+                commands.entity(entity).insert(ClothBuildError(err));
+            }
+        }
+    }
+}
+
+/// Moves pins and attachments to this step's targets and steps every cloth.
+fn step_cloths(
+    mut cloths: Query<(Entity, &Cloth, &mut ClothSimulation, Option<&ClothSettings>)>,
+    defaults: Res<DefaultClothSettings>,
+    drape: Res<DrapeSettings>,
+    time: Res<Time>,
+    transforms: TransformHelper,
+) {
+    let dt = time.delta_secs();
+    for (entity, cloth, mut simulation, settings) in &mut cloths {
+        let simulation = &mut *simulation;
+        let settings = settings.unwrap_or(&defaults.0);
+        let sim = &mut simulation.sim;
+        simulation.render_from.clone_from(&sim.state().positions);
+        if drape.paused {
+            continue;
+        }
+        if let Err(err) = settings.solver.validate() {
+            if !simulation.warned_invalid_settings {
+                warn!("cloth {entity} is not stepped: {err}");
+                simulation.warned_invalid_settings = true;
+            }
+            continue;
+        }
+        simulation.warned_invalid_settings = false;
+        if settings.density != sim.model().density
+            && let Err(err) = sim.set_density(settings.density)
+        {
+            warn!(
+                "cloth {entity}: {err}; keeping density {}",
+                sim.model().density
+            );
+        }
+        settings.planes(&mut simulation.planes);
+        sim.set_planes(&simulation.planes);
+
+        if let Ok(global) = transforms.compute_global_transform(entity) {
+            for &v in &cloth.pinned_vertices {
+                if let Some(&rest) = simulation.local_rest.get(v as usize) {
+                    sim.set_pin_target(v, global.transform_point(rest));
+                }
+            }
+        }
+        for attachment in &cloth.attachments {
+            match transforms.compute_global_transform(attachment.target) {
+                Ok(target) => {
+                    sim.set_pin_target(
+                        attachment.vertex,
+                        target.transform_point(attachment.offset),
+                    );
+                }
+                Err(err) => warn!(
+                    "cloth {entity}: attachment of vertex {} to {}: {err}",
+                    attachment.vertex, attachment.target
+                ),
+            }
+        }
+
+        sim.step(&settings.solver, drape.gravity, dt);
+
+        if !sim.is_finite() {
+            error!("cloth {entity} diverged (non-finite state); restoring the previous step");
+            let state = sim.state_mut();
+            state.positions.clone_from(&simulation.render_from);
+            state.previous_positions.clone_from(&simulation.render_from);
+            state.velocities.fill(Vec3A::ZERO);
+        }
+    }
+}
+
+/// Writes every cloth into its mesh, interpolated between the last two fixed steps.
+fn write_back_meshes(
+    mut cloths: Query<(&mut ClothSimulation, &Mesh3d, &GlobalTransform)>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    fixed: Res<Time<Fixed>>,
+) {
+    let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
+    for (mut simulation, mesh3d, global) in &mut cloths {
+        let simulation = &mut *simulation;
+        let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
+            continue;
+        };
+        let to_local = global.affine().inverse();
+        let current = &simulation.sim.state().positions;
+        let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
+            mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
+        else {
+            continue;
+        };
+        if positions.len() != current.len() {
+            continue;
+        }
+        for ((out, from), to) in positions
+            .iter_mut()
+            .zip(&simulation.render_from)
+            .zip(current)
+        {
+            let p = to_local.transform_point3a(from.lerp(*to, alpha));
+            if p.is_finite() {
+                *out = p.to_array();
+            }
+        }
+        compute_normals(
+            positions,
+            &simulation.sim.model().triangles,
+            &mut simulation.normals,
+        );
+        let normals = simulation.normals.iter().map(|n| n.to_array());
+        match mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_NORMAL) {
+            Ok(Some(VertexAttributeValues::Float32x3(out))) if out.len() == current.len() => {
+                for (out, n) in out.iter_mut().zip(normals) {
+                    *out = n;
+                }
+            }
+            _ => {
+                let normals: Vec<[f32; 3]> = normals.collect();
+                mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
+            }
+        }
+    }
+}

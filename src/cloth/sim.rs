@@ -1,0 +1,398 @@
+//! [`ClothSim`]: one cloth's model, state, pins and solver scratch, and the XPBD step.
+
+use bevy::math::{Vec3, Vec3A};
+
+use super::constraints::{
+    Plane, Projection, Tether, project_bending, project_distance, project_plane, project_tether,
+};
+use super::damping::{RigidMotion, damp_plain, damp_rigid};
+use super::model::{ClothModel, EdgeKind};
+use super::settings::{DampingMode, SolverMethod, SolverSettings};
+use super::state::ClothState;
+use crate::error::ClothError;
+
+/// How many nearest pinned particles each free particle is tethered to.
+const TETHERS_PER_PARTICLE: usize = 4;
+
+/// A pinned particle: inverse mass 0, moved along a straight line from `start` to `end` over
+/// the next step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pin {
+    /// The particle.
+    pub particle: u32,
+    /// Where it is at the start of the step.
+    pub start: Vec3A,
+    /// Where it is at the end of the step.
+    pub end: Vec3A,
+}
+
+/// Strain statistics over the structural edges.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StrainStats {
+    /// Largest `|len - rest| / rest`.
+    pub max: f32,
+    /// Mean `|len - rest| / rest`.
+    pub mean: f32,
+}
+
+/// One simulated cloth: its [`ClothModel`], its [`ClothState`], its pins and the solver's
+/// scratch memory. [`ClothSim::step`] advances it by one fixed step without allocating.
+#[derive(Clone, Debug)]
+pub struct ClothSim {
+    model: ClothModel,
+    state: ClothState,
+    pins: Vec<Pin>,
+    tethers: Vec<Tether>,
+    planes: Vec<Plane>,
+    edge_lambdas: Vec<f32>,
+    bend_lambdas: Vec<f32>,
+    contact_push: Vec<f32>,
+}
+
+impl ClothSim {
+    /// A cloth at rest in its model's rest shape, with no pins.
+    pub fn new(model: ClothModel) -> Self {
+        let state = ClothState::at_rest(&model);
+        let n = model.particle_count();
+        Self {
+            edge_lambdas: vec![0.0; model.edges.len()],
+            bend_lambdas: vec![0.0; model.bending_pairs.len()],
+            contact_push: vec![0.0; n],
+            model,
+            state,
+            pins: Vec::new(),
+            tethers: Vec::new(),
+            planes: Vec::new(),
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ClothModel {
+        &self.model
+    }
+
+    /// The state.
+    pub fn state(&self) -> &ClothState {
+        &self.state
+    }
+
+    /// The state, for setting positions or velocities directly. Inverse masses are managed by
+    /// the sim (pins, density): change them through [`ClothSim::set_pins`] and
+    /// [`ClothSim::set_density`].
+    pub fn state_mut(&mut self) -> &mut ClothState {
+        &mut self.state
+    }
+
+    /// The pins.
+    pub fn pins(&self) -> &[Pin] {
+        &self.pins
+    }
+
+    /// The long-range attachments currently built.
+    pub fn tethers(&self) -> &[Tether] {
+        &self.tethers
+    }
+
+    /// Pins `particles` where they are now (replacing any earlier pins) and rebuilds the
+    /// long-range attachments.
+    pub fn set_pins(&mut self, particles: &[u32]) -> Result<(), ClothError> {
+        let n = self.model.particle_count();
+        if let Some(&vertex) = particles.iter().find(|&&p| p as usize >= n) {
+            return Err(ClothError::VertexOutOfRange {
+                vertex,
+                vertex_count: n,
+            });
+        }
+        let mut sorted = particles.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        self.pins = sorted
+            .iter()
+            .map(|&particle| {
+                let p = self.state.positions[particle as usize];
+                Pin {
+                    particle,
+                    start: p,
+                    end: p,
+                }
+            })
+            .collect();
+        self.refresh_masses();
+        self.rebuild_tethers();
+        Ok(())
+    }
+
+    /// Sets where pinned particle `particle` must be at the end of the next step; it moves
+    /// there along a straight line over the substeps. Returns `false` if it is not pinned or
+    /// the target is not finite.
+    pub fn set_pin_target(&mut self, particle: u32, target: Vec3) -> bool {
+        if !target.is_finite() {
+            return false;
+        }
+        match self.pins.binary_search_by_key(&particle, |p| p.particle) {
+            Ok(k) => {
+                self.pins[k].end = target.into();
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// Replaces the planes (ground, container walls) particles stay on the allowed side of.
+    pub fn set_planes(&mut self, planes: &[Plane]) {
+        self.planes.clear();
+        self.planes.extend_from_slice(planes);
+    }
+
+    /// Changes the areal density; masses and inverse masses follow.
+    pub fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
+        self.model.set_density(density)?;
+        self.refresh_masses();
+        Ok(())
+    }
+
+    /// Puts the cloth back in its rest shape, at rest, pins at their rest positions.
+    pub fn reset(&mut self) {
+        self.state = ClothState::at_rest(&self.model);
+        for pin in &mut self.pins {
+            let p = self.state.positions[pin.particle as usize];
+            pin.start = p;
+            pin.end = p;
+        }
+        self.refresh_masses();
+    }
+
+    /// Recomputes inverse masses from the model: `1 / mass`, or 0 for pinned and massless
+    /// particles.
+    fn refresh_masses(&mut self) {
+        for (i, w) in self.state.inverse_masses.iter_mut().enumerate() {
+            let m = self.model.mass(i);
+            *w = if m > 0.0 { 1.0 / m } else { 0.0 };
+        }
+        for pin in &self.pins {
+            self.state.inverse_masses[pin.particle as usize] = 0.0;
+        }
+    }
+
+    /// Tethers every free particle to its nearest pinned particles (at most
+    /// `TETHERS_PER_PARTICLE`), with the straight-line rest distance as the length. That
+    /// length is the geodesic one for a flat piece whose straight line to the pin stays on the
+    /// cloth (every grid); across a hole or a curved rest shape it is shorter than the
+    /// geodesic and holds the cloth tighter than its edges would.
+    fn rebuild_tethers(&mut self) {
+        self.tethers.clear();
+        if self.pins.is_empty() {
+            return;
+        }
+        let rest = &self.model.rest_positions;
+        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(self.pins.len());
+        for (i, &w) in self.state.inverse_masses.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            nearest.clear();
+            nearest.extend(
+                self.pins
+                    .iter()
+                    .map(|pin| (rest[i].distance(rest[pin.particle as usize]), pin.particle)),
+            );
+            let k = TETHERS_PER_PARTICLE.min(nearest.len());
+            if nearest.len() > k {
+                nearest.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+            }
+            for &(length, anchor) in &nearest[..k] {
+                self.tethers.push(Tether {
+                    particle: i as u32,
+                    anchor,
+                    length,
+                });
+            }
+        }
+    }
+
+    /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
+    /// (gravity plus any external acceleration), in `settings.substeps` substeps of
+    /// `settings.iterations` constraint iterations each.
+    ///
+    /// Each substep of length `h`:
+    /// 1. predict: `x_prev = x`, `x += h v + h^2/2 a` for free particles; pins move to their
+    ///    interpolated targets;
+    /// 2. project, `iterations` times, in this order: edges, bending pairs, tethers, planes
+    ///    (multipliers reset first);
+    /// 3. velocities: `v = (x - x_prev) / h + h/2 a`;
+    /// 4. contacts with planes: the approaching normal velocity is removed and the tangential
+    ///    one reduced by Coulomb friction (by at most `mu` times the normal velocity change the
+    ///    contact made, `push / h`); then damping.
+    ///
+    /// Steps 1 and 3 are symplectic Euler on the half-step velocity `(x - x_prev) / h`, started
+    /// consistently (velocity Verlet), so a free particle follows `x0 + v0 t + a t^2 / 2`
+    /// exactly, whatever the step.
+    pub fn step(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+        let substeps = settings.substeps.max(1);
+        let iterations = settings.iterations.max(1);
+        if !(dt > 0.0 && dt.is_finite()) {
+            return;
+        }
+        let h = dt / substeps as f32;
+        let a = Vec3A::from(acceleration);
+        let (stretch, bend) = match settings.method {
+            SolverMethod::Xpbd => (
+                Projection::Xpbd {
+                    alpha_tilde: settings.stretch_compliance / (h * h),
+                },
+                Projection::Xpbd {
+                    alpha_tilde: settings.bend_compliance / (h * h),
+                },
+            ),
+            SolverMethod::Pbd { stiffness } => {
+                (Projection::Pbd { stiffness }, Projection::Pbd { stiffness })
+            }
+        };
+        let damping_k = 1.0 - (-settings.damping * h).exp();
+        let ClothState {
+            positions: x,
+            previous_positions: x_prev,
+            velocities: v,
+            inverse_masses: w,
+        } = &mut self.state;
+
+        for s in 0..substeps {
+            // 1. Predict.
+            let half_h2_a = a * (0.5 * h * h);
+            for i in 0..x.len() {
+                x_prev[i] = x[i];
+                if w[i] > 0.0 {
+                    x[i] += v[i] * h + half_h2_a;
+                }
+            }
+            let t_end = (s + 1) as f32 / substeps as f32;
+            for pin in &self.pins {
+                x[pin.particle as usize] = pin.start.lerp(pin.end, t_end);
+            }
+
+            // 2. Project.
+            self.edge_lambdas.fill(0.0);
+            self.bend_lambdas.fill(0.0);
+            self.contact_push.fill(0.0);
+            for _ in 0..iterations {
+                for (edge, lambda) in self.model.edges.iter().zip(&mut self.edge_lambdas) {
+                    project_distance(x, w, edge.particles, edge.rest_length, stretch, lambda);
+                }
+                for (pair, lambda) in self.model.bending_pairs.iter().zip(&mut self.bend_lambdas) {
+                    project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
+                }
+                if settings.long_range_attachments {
+                    for tether in &self.tethers {
+                        project_tether(x, tether);
+                    }
+                }
+                for plane in &self.planes {
+                    for i in 0..x.len() {
+                        if w[i] > 0.0 {
+                            self.contact_push[i] +=
+                                project_plane(&mut x[i], plane, settings.thickness);
+                        }
+                    }
+                }
+            }
+
+            // 3. Velocities: v = (x - x_prev) / h + h/2 a, computed as v + h a + (x - x_pred) / h
+            //    with the prediction x_pred recomputed bit for bit, so that an unconstrained
+            //    particle's velocity carries no rounding from the difference of two nearly
+            //    equal positions (in f32 that difference loses millimetres per second of fall).
+            let inv_h = 1.0 / h;
+            let h_a = a * h;
+            for i in 0..x.len() {
+                if w[i] > 0.0 {
+                    let predicted = x_prev[i] + (v[i] * h + half_h2_a);
+                    v[i] += h_a + (x[i] - predicted) * inv_h;
+                } else {
+                    v[i] = (x[i] - x_prev[i]) * inv_h;
+                }
+            }
+
+            // 4. Contacts (no bounce, Coulomb friction), then damping.
+            if !self.planes.is_empty() {
+                for plane in &self.planes {
+                    for i in 0..x.len() {
+                        let push = self.contact_push[i];
+                        if push > 0.0
+                            && plane.normal.dot(x[i]) <= plane.offset + settings.thickness * 1.001
+                        {
+                            let vn = plane.normal * plane.normal.dot(v[i]).max(0.0);
+                            let vt = v[i] - vn;
+                            let speed = vt.length();
+                            let max_change = settings.friction * push * inv_h;
+                            v[i] = vn
+                                + if speed <= max_change {
+                                    Vec3A::ZERO
+                                } else {
+                                    vt * (1.0 - max_change / speed)
+                                };
+                        }
+                    }
+                }
+            }
+            if damping_k > 0.0 {
+                match settings.damping_mode {
+                    DampingMode::Plain => damp_plain(v, w, damping_k),
+                    DampingMode::Rigid => damp_rigid(x, v, w, damping_k),
+                }
+            }
+        }
+        for pin in &mut self.pins {
+            pin.start = pin.end;
+        }
+    }
+
+    /// Strain `|len - rest| / rest` over the structural edges.
+    pub fn strain(&self) -> StrainStats {
+        let x = &self.state.positions;
+        let mut stats = StrainStats::default();
+        let mut count = 0usize;
+        for edge in self
+            .model
+            .edges
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Structural)
+        {
+            let [a, b] = edge.particles;
+            let strain =
+                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length;
+            stats.max = stats.max.max(strain);
+            stats.mean += strain;
+            count += 1;
+        }
+        if count > 0 {
+            stats.mean /= count as f32;
+        }
+        stats
+    }
+
+    /// Whether every position and velocity is finite.
+    pub fn is_finite(&self) -> bool {
+        self.state.positions.iter().all(|p| p.is_finite())
+            && self.state.velocities.iter().all(|v| v.is_finite())
+    }
+
+    /// The rigid motion that fits the free particles (centre of mass, linear and angular
+    /// momentum); `None` if every particle is pinned.
+    pub fn rigid_motion(&self) -> Option<RigidMotion> {
+        RigidMotion::fit(
+            &self.state.positions,
+            &self.state.velocities,
+            &self.state.inverse_masses,
+        )
+    }
+
+    /// Kinetic energy of the free particles, J.
+    pub fn kinetic_energy(&self) -> f32 {
+        self.state
+            .velocities
+            .iter()
+            .zip(&self.state.inverse_masses)
+            .filter(|&(_, &w)| w > 0.0)
+            .map(|(v, &w)| 0.5 * v.length_squared() / w)
+            .sum()
+    }
+}

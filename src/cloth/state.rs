@@ -1,0 +1,49 @@
+//! The moving part of a cloth, in structure-of-arrays form.
+
+use bevy::math::Vec3A;
+
+use super::model::ClothModel;
+
+/// Positions, previous positions, velocities and inverse masses of every particle, one array
+/// each, indexed by particle.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ClothState {
+    /// Positions, metres.
+    pub positions: Vec<Vec3A>,
+    /// Positions at the start of the last substep, metres.
+    pub previous_positions: Vec<Vec3A>,
+    /// Velocities, m/s.
+    pub velocities: Vec<Vec3A>,
+    /// Inverse masses, 1/kg; 0 for pinned (or massless) particles, which only move as they
+    /// are told.
+    pub inverse_masses: Vec<f32>,
+}
+
+impl ClothState {
+    /// The model's rest shape, at rest, inverse masses from the model's masses.
+    pub fn at_rest(model: &ClothModel) -> Self {
+        let positions: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
+        let inverse_masses = (0..model.particle_count())
+            .map(|i| {
+                let m = model.mass(i);
+                if m > 0.0 { 1.0 / m } else { 0.0 }
+            })
+            .collect();
+        Self {
+            previous_positions: positions.clone(),
+            velocities: vec![Vec3A::ZERO; positions.len()],
+            positions,
+            inverse_masses,
+        }
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+}

@@ -1,0 +1,110 @@
+//! Errors and warnings for user-supplied data.
+//!
+//! The library never panics on user data: anything that can be wrong in a mesh, a setting or a
+//! pin list is reported as a [`ClothError`] (the cloth is not built) or a [`ClothWarning`]
+//! (the cloth is built, with the offending part left out). The Bevy side logs both with the
+//! entity named.
+
+use thiserror::Error;
+
+/// Why a cloth could not be built or changed.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ClothError {
+    /// The mesh has no (non-degenerate) triangles.
+    #[error("the mesh has no usable triangles")]
+    NoTriangles,
+    /// The index list is not a whole number of triangles.
+    #[error("the index count {0} is not a multiple of 3")]
+    IndexCountNotTriangles(usize),
+    /// A triangle refers to a vertex that does not exist.
+    #[error("index {index} is out of range for {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// The offending index.
+        index: u32,
+        /// The number of vertices.
+        vertex_count: usize,
+    },
+    /// A vertex position is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite position")]
+    NonFinitePosition {
+        /// The offending vertex.
+        vertex: usize,
+    },
+    /// The areal density is not a finite positive number.
+    #[error("density {0} kg/m^2 is not a finite positive number")]
+    InvalidDensity(f32),
+    /// A particle mass is negative or not finite.
+    #[error("particle {particle} has an invalid mass {mass} kg")]
+    InvalidMass {
+        /// The offending particle.
+        particle: usize,
+        /// Its mass.
+        mass: f32,
+    },
+    /// A distance constraint joins a particle to itself or has zero rest length.
+    #[error("constraint {constraint} between particles {a} and {b} has zero rest length")]
+    DegenerateConstraint {
+        /// The index of the constraint in the input.
+        constraint: usize,
+        /// First particle.
+        a: u32,
+        /// Second particle.
+        b: u32,
+    },
+    /// A pinned or attached vertex does not exist.
+    #[error("vertex {vertex} is out of range for {vertex_count} vertices")]
+    VertexOutOfRange {
+        /// The offending vertex.
+        vertex: u32,
+        /// The number of vertices.
+        vertex_count: usize,
+    },
+    /// The mesh is not a triangle list.
+    #[error("the mesh is not a triangle list")]
+    NotTriangleList,
+    /// The mesh has no `Float32x3` position attribute.
+    #[error("the mesh has no Float32x3 position attribute")]
+    MissingPositions,
+    /// The mesh data lives only in the render world (its asset usage lacks `MAIN_WORLD`).
+    #[error("the mesh data is not in the main world; create it with RenderAssetUsages::MAIN_WORLD")]
+    MeshDataUnavailable,
+    /// A setting is out of its valid range.
+    #[error("setting `{name}` = {value} is invalid: {reason}")]
+    InvalidSetting {
+        /// The setting's name.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+        /// What the valid range is.
+        reason: &'static str,
+    },
+}
+
+/// Something in the input that was left out or adjusted; the cloth is still built.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ClothWarning {
+    /// A triangle with (near) zero area was dropped.
+    #[error("triangle {triangle} has zero area and was ignored")]
+    DegenerateTriangle {
+        /// The triangle's index in the input.
+        triangle: usize,
+    },
+    /// An edge is shared by more than two triangles; it gets no bending constraint.
+    #[error(
+        "edge ({a}, {b}) is shared by {triangles} triangles (non-manifold); it has no bending constraint"
+    )]
+    NonManifoldEdge {
+        /// First vertex.
+        a: u32,
+        /// Second vertex.
+        b: u32,
+        /// How many triangles share it.
+        triangles: usize,
+    },
+    /// Vertices that belong to no triangle have no mass; they are held in place.
+    #[error("{count} vertices belong to no triangle; they have no mass and are held in place")]
+    IsolatedVertices {
+        /// How many.
+        count: usize,
+    },
+}

@@ -1,0 +1,66 @@
+#![doc = include_str!("../README.md")]
+
+pub mod cloth;
+pub mod error;
+pub mod scenes;
+pub mod schedule;
+
+use bevy::app::{PluginGroup, PluginGroupBuilder};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::FixedPostUpdate;
+
+use cloth::plugin::ClothPlugin;
+use schedule::DrapeSchedulePlugin;
+
+/// Everything most users import.
+pub mod prelude {
+    pub use crate::DrapePlugins;
+    pub use crate::cloth::mesh::grid_mesh;
+    pub use crate::cloth::plugin::{
+        Cloth, ClothBuildError, ClothPlugin, ClothSettings, ClothSimulation, DefaultClothSettings,
+        DrapeSettings, VertexAttachment,
+    };
+    pub use crate::cloth::{
+        ClothModel, ClothSim, DampingMode, GridDesc, SolverMethod, SolverSettings,
+    };
+    pub use crate::error::{ClothError, ClothWarning};
+    pub use crate::schedule::DrapeSystems;
+}
+
+/// All of `bevy_drape`'s plugins, simulating in [`FixedPostUpdate`] by default.
+///
+/// | plugin | what it does |
+/// |---|---|
+/// | [`DrapeSchedulePlugin`] | orders the [`schedule::DrapeSystems`] sets |
+/// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
+pub struct DrapePlugins {
+    schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl DrapePlugins {
+    /// Simulates in `schedule` (a fixed-timestep schedule such as `FixedUpdate`).
+    pub fn new(schedule: impl ScheduleLabel) -> Self {
+        Self {
+            schedule: schedule.intern(),
+        }
+    }
+}
+
+impl Default for DrapePlugins {
+    fn default() -> Self {
+        Self::new(FixedPostUpdate)
+    }
+}
+
+impl PluginGroup for DrapePlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(DrapeSchedulePlugin {
+                schedule: self.schedule,
+            })
+            .add(ClothPlugin {
+                schedule: self.schedule,
+            })
+    }
+}

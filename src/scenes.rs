@@ -1,0 +1,140 @@
+//! The standard scenes every figure of the crate comes from (see `BENCHMARKS.md`), built on
+//! the pure cores so they run without an App: the `scenes` example, the benches and the
+//! accuracy tests all use these.
+
+use std::time::Instant;
+
+use bevy::math::Vec3;
+
+use crate::cloth::{ClothModel, ClothSim, GridDesc, SolverSettings};
+
+/// Frame rate of the standard scenes, Hz.
+pub const FRAME_RATE: f32 = 60.0;
+/// Gravity of the standard scenes, m/s^2.
+pub const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
+/// Areal density of the standard sheet, kg/m^2.
+pub const DENSITY: f32 = 0.1;
+
+/// Scene S1, the hanging cloth: a 1 m x 1 m sheet of `n` x `n` vertices, flat at y = 1 m over
+/// x, z in [0, 1], pinned at (0, 1, 0) and (1, 1, 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HangingCloth {
+    /// Vertices per side.
+    pub n: u32,
+}
+
+impl HangingCloth {
+    /// The grid.
+    pub fn grid(&self) -> GridDesc {
+        GridDesc::square(1.0, self.n, Vec3::new(0.0, 1.0, 0.0))
+    }
+
+    /// The pinned vertices.
+    pub fn pins(&self) -> [u32; 2] {
+        let g = self.grid();
+        [g.index(0, 0), g.index(self.n - 1, 0)]
+    }
+
+    /// The free corner diagonal to a pinned one, starting at (1, 1, 1).
+    pub fn corner(&self) -> u32 {
+        self.grid().index(self.n - 1, self.n - 1)
+    }
+
+    /// The centre vertex `(n/2, n/2)`.
+    pub fn center(&self) -> u32 {
+        self.grid().index(self.n / 2, self.n / 2)
+    }
+
+    /// The cloth, pinned, at rest.
+    pub fn build(&self) -> ClothSim {
+        let model = ClothModel::grid(&self.grid(), DENSITY)
+            .expect("the standard grid is valid by construction");
+        let mut sim = ClothSim::new(model);
+        sim.set_pins(&self.pins())
+            .expect("the standard pins are in range by construction");
+        sim
+    }
+
+    /// Runs `frames` frames at [`FRAME_RATE`] and records what S1 reports.
+    pub fn run(&self, settings: &SolverSettings, frames: u32) -> SceneRun {
+        let mut sim = self.build();
+        let dt = 1.0 / FRAME_RATE;
+        let mut samples = Vec::new();
+        let mut frame_seconds = Vec::with_capacity(frames as usize);
+        let mut finite = true;
+        for frame in 1..=frames {
+            let start = Instant::now();
+            sim.step(settings, GRAVITY, dt);
+            frame_seconds.push(start.elapsed().as_secs_f64());
+            finite &= sim.is_finite();
+            if frame == 30 || frame == 60 || frame == 120 || frame == frames {
+                let x = &sim.state().positions;
+                samples.push(Sample {
+                    time: frame as f32 * dt,
+                    corner: x[self.corner() as usize].into(),
+                    center: x[self.center() as usize].into(),
+                });
+            }
+        }
+        samples.dedup_by(|a, b| a.time == b.time);
+        let strain = sim.strain();
+        SceneRun {
+            frame_seconds,
+            max_strain: strain.max,
+            mean_strain: strain.mean,
+            samples,
+            finite,
+            sim,
+        }
+    }
+}
+
+/// Positions of the tracked vertices at one time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Simulated time, s.
+    pub time: f32,
+    /// The free corner.
+    pub corner: Vec3,
+    /// The centre vertex.
+    pub center: Vec3,
+}
+
+/// The outcome of one scene run.
+#[derive(Clone, Debug)]
+pub struct SceneRun {
+    /// Wall time of every frame, s.
+    pub frame_seconds: Vec<f64>,
+    /// Largest structural strain at the end.
+    pub max_strain: f32,
+    /// Mean structural strain at the end.
+    pub mean_strain: f32,
+    /// Tracked positions at t = 0.5, 1 and 2 s (those reached) and at the end.
+    pub samples: Vec<Sample>,
+    /// Whether the state stayed finite throughout.
+    pub finite: bool,
+    /// The cloth at the end.
+    pub sim: ClothSim,
+}
+
+impl SceneRun {
+    /// Median wall time per frame, ms.
+    pub fn median_ms_per_frame(&self) -> f64 {
+        median(&self.frame_seconds) * 1e3
+    }
+}
+
+/// The median of `values` (0 for none).
+pub fn median(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let mid = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[mid]
+    } else {
+        0.5 * (v[mid - 1] + v[mid])
+    }
+}

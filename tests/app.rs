@@ -1,0 +1,245 @@
+//! The plugin in a headless App: `MinimalPlugins`, manual time, no window.
+
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::mesh::{Indices, Mesh, MeshPlugin, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::transform::TransformPlugin;
+use bevy_drape::prelude::*;
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        MeshPlugin,
+        DrapePlugins::default(),
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 64.0,
+    )));
+    app
+}
+
+fn positions(app: &App, entity: Entity) -> Vec<Vec3> {
+    let handle = &app.world().get::<Mesh3d>(entity).unwrap().0;
+    let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+    match mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap() {
+        VertexAttributeValues::Float32x3(p) => p.iter().map(|&p| Vec3::from_array(p)).collect(),
+        _ => panic!("positions are Float32x3"),
+    }
+}
+
+#[test]
+fn a_cloth_entity_falls_writes_its_mesh_and_keeps_its_pins() {
+    let mut app = app();
+    let grid = GridDesc::square(1.0, 12, Vec3::ZERO);
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(grid_mesh(&grid));
+    let pins = [grid.index(0, 0), grid.index(11, 0)];
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(mesh.clone()),
+            Cloth::pinned(pins),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ))
+        .id();
+    let before = grid.mesh().positions;
+    // The first update has a zero delta: 121 updates give 120 fixed steps at 64 Hz.
+    for _ in 0..121 {
+        app.update();
+    }
+    assert!(app.world().get::<ClothSimulation>(cloth).is_some());
+    // The cloth got a mesh of its own; the shared one is untouched.
+    assert_ne!(app.world().get::<Mesh3d>(cloth).unwrap().0, mesh);
+    let after = positions(&app, cloth);
+    assert!(after.iter().all(|p| p.is_finite()));
+    let moved = after
+        .iter()
+        .zip(&before)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f32::max);
+    assert!(moved > 0.3, "the cloth fell: largest move {moved}");
+    for pin in pins {
+        let d = after[pin as usize].distance(before[pin as usize]);
+        assert!(d < 1e-5, "pinned vertex {pin} moved {d}");
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    assert!(sim.strain().max < 0.05);
+}
+
+#[test]
+fn moving_the_cloth_entity_moves_its_pins_and_an_attachment_follows_its_target() {
+    let mut app = app();
+    let grid = GridDesc::square(1.0, 6, Vec3::ZERO);
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(grid_mesh(&grid));
+    let bar = app
+        .world_mut()
+        .spawn(Transform::from_xyz(1.0, 2.0, 0.0))
+        .id();
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(mesh),
+            Cloth::pinned([0]).with_attachment(VertexAttachment {
+                vertex: grid.index(5, 0),
+                target: bar,
+                offset: Vec3::ZERO,
+            }),
+            Transform::from_xyz(0.0, 2.0, 0.0),
+        ))
+        .id();
+    for _ in 0..11 {
+        app.update();
+    }
+    app.world_mut()
+        .get_mut::<Transform>(cloth)
+        .unwrap()
+        .translation
+        .x += 0.25;
+    app.world_mut()
+        .get_mut::<Transform>(bar)
+        .unwrap()
+        .translation
+        .z += 0.5;
+    for _ in 0..30 {
+        app.update();
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let x = &sim.state().positions;
+    assert!(Vec3::from(x[0]).distance(Vec3::new(0.25, 2.0, 0.0)) < 1e-5);
+    let attached = Vec3::from(x[grid.index(5, 0) as usize]);
+    assert!(
+        attached.distance(Vec3::new(1.0, 2.0, 0.5)) < 1e-5,
+        "{attached}"
+    );
+}
+
+#[test]
+fn bad_meshes_are_refused_with_an_error_component_and_the_app_keeps_running() {
+    let mut app = app();
+    let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+    let no_triangles = meshes.add(
+        Mesh::new(PrimitiveTopology::TriangleList, default())
+            .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; 3])
+            .with_inserted_indices(Indices::U32(vec![])),
+    );
+    let nan = meshes.add(
+        Mesh::new(PrimitiveTopology::TriangleList, default())
+            .with_inserted_attribute(
+                Mesh::ATTRIBUTE_POSITION,
+                vec![[0.0, 0.0, 0.0], [1.0, f32::NAN, 0.0], [0.0, 0.0, 1.0]],
+            )
+            .with_inserted_indices(Indices::U32(vec![0, 2, 1])),
+    );
+    let out_of_range = meshes.add(
+        Mesh::new(PrimitiveTopology::TriangleList, default())
+            .with_inserted_attribute(
+                Mesh::ATTRIBUTE_POSITION,
+                vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+            )
+            .with_inserted_indices(Indices::U32(vec![0, 2, 5])),
+    );
+    let good = meshes.add(grid_mesh(&GridDesc::square(1.0, 4, Vec3::ZERO)));
+    let other = meshes.add(grid_mesh(&GridDesc::square(1.0, 4, Vec3::ZERO)));
+    let bad_settings = ClothSettings {
+        density: -1.0,
+        ..default()
+    };
+    let world = app.world_mut();
+    let a = world.spawn((Mesh3d(no_triangles), Cloth::default())).id();
+    let b = world.spawn((Mesh3d(nan), Cloth::default())).id();
+    let c = world.spawn((Mesh3d(out_of_range), Cloth::default())).id();
+    let d = world
+        .spawn((Mesh3d(good.clone()), Cloth::default(), bad_settings))
+        .id();
+    let e = world.spawn((Mesh3d(good), Cloth::pinned([99]))).id();
+    let ok = world.spawn((Mesh3d(other), Cloth::default())).id();
+    for _ in 0..20 {
+        app.update();
+    }
+    let error = |entity| {
+        app.world()
+            .get::<ClothBuildError>(entity)
+            .map(|e| e.0.clone())
+    };
+    assert_eq!(error(a), Some(ClothError::NoTriangles));
+    assert_eq!(error(b), Some(ClothError::NonFinitePosition { vertex: 1 }));
+    assert_eq!(
+        error(c),
+        Some(ClothError::IndexOutOfRange {
+            index: 5,
+            vertex_count: 3
+        })
+    );
+    assert_eq!(error(d), Some(ClothError::InvalidDensity(-1.0)));
+    assert!(matches!(
+        error(e),
+        Some(ClothError::VertexOutOfRange { vertex: 99, .. })
+    ));
+    // The good cloth next to them simulates.
+    let sim = app.world().get::<ClothSimulation>(ok).unwrap().sim();
+    assert!(sim.is_finite());
+    assert!(sim.state().positions[0].y < -0.1);
+}
+
+#[test]
+fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
+    let mut app = app();
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(grid_mesh(&GridDesc::square(2.0, 5, Vec3::ZERO)));
+    let cloth = app
+        .world_mut()
+        .spawn((Mesh3d(mesh), Cloth::default(), ClothSettings::default()))
+        .id();
+    for _ in 0..3 {
+        app.update();
+    }
+    let mass = |app: &App| {
+        app.world()
+            .get::<ClothSimulation>(cloth)
+            .unwrap()
+            .sim()
+            .model()
+            .total_mass()
+    };
+    assert!((mass(&app) - 0.1 * 4.0).abs() < 1e-5);
+    app.world_mut()
+        .get_mut::<ClothSettings>(cloth)
+        .unwrap()
+        .density = 0.3;
+    app.update();
+    app.update();
+    assert!((mass(&app) - 0.3 * 4.0).abs() < 1e-5);
+
+    app.world_mut().resource_mut::<DrapeSettings>().paused = true;
+    app.update();
+    let frozen = app
+        .world()
+        .get::<ClothSimulation>(cloth)
+        .unwrap()
+        .sim()
+        .state()
+        .clone();
+    for _ in 0..5 {
+        app.update();
+    }
+    let now = app
+        .world()
+        .get::<ClothSimulation>(cloth)
+        .unwrap()
+        .sim()
+        .state();
+    assert_eq!(now, &frozen);
+}
