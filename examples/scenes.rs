@@ -74,7 +74,7 @@ fn run() -> Result<(), String> {
                 .map(|s| format!("{:.3}", s.time))
                 .collect();
             println!(
-                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"tethers\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
+                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"long_range\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
                 settings.substeps,
                 settings.iterations,
                 settings.long_range_attachments,

@@ -227,15 +227,16 @@ fn xpbd_sag_does_not_depend_on_iterations_but_pbd_sag_does() {
 
 #[test]
 fn s1_at_n32_with_compliance_zero_stays_below_one_percent_strain() {
-    // The budget: 8 substeps x 8 iterations per 1/60 s frame, long-range attachments on.
+    // The budget: 8 substeps x 4 iterations per 1/60 s frame, long-range attachments and
+    // stretch limits on.
     let settings = SolverSettings {
         substeps: 8,
-        iterations: 8,
+        iterations: 4,
         ..Default::default()
     };
     let run = HangingCloth { n: 32 }.run(&settings, 120);
     println!(
-        "S1 N=32 8x8: max strain {}, mean {}",
+        "S1 N=32 8x4: max strain {}, mean {}",
         run.max_strain, run.mean_strain
     );
     assert!(run.finite);

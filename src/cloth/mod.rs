@@ -5,10 +5,12 @@ pub mod constraints;
 pub mod damping;
 pub mod mesh;
 pub mod model;
+pub mod ordering;
 pub mod plugin;
 pub mod settings;
 pub mod sim;
 pub mod state;
+pub mod stretch_limits;
 
 pub use constraints::{Plane, Tether};
 pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};

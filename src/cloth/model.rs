@@ -298,16 +298,10 @@ impl ClothModel {
     pub fn grid(desc: &GridDesc, density: f32) -> Result<Self, ClothError> {
         let mesh = desc.mesh();
         let mut model = Self::from_triangles(&mesh.positions, &mesh.indices, density)?;
-        // Both lists are sorted by (smaller, larger) index, so one merge pass marks the shear
-        // edges.
         let mut shear = mesh.shear_edges;
         shear.sort_unstable();
-        let mut k = 0;
         for edge in &mut model.edges {
-            while k < shear.len() && shear[k] < edge.particles {
-                k += 1;
-            }
-            if k < shear.len() && shear[k] == edge.particles {
+            if shear.binary_search(&edge.particles).is_ok() {
                 edge.kind = EdgeKind::Shear;
             }
         }

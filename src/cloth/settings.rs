@@ -59,9 +59,12 @@ pub struct SolverSettings {
     pub thickness: f32,
     /// Coulomb friction coefficient against planes. Default: `0.5`.
     pub friction: f32,
-    /// Long-range attachments (tethers) from every free particle to its nearest pinned
-    /// particles, which keep a pinned cloth from stretching under its own weight at a small
-    /// substep count (Kim, Chentanez and Mueller 2012). Default: `true`.
+    /// Long-range constraints that keep an inextensible cloth from stretching at a small
+    /// substep count: tethers from every free particle to its nearest pinned particles (Kim,
+    /// Chentanez and Mueller 2012) and stretch limits along the straight lines of the rest
+    /// shape ([`crate::cloth::stretch_limits`]). Both only refuse lengthening beyond the rest
+    /// shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). Default:
+    /// `true`.
     pub long_range_attachments: bool,
 }
 

@@ -7,9 +7,18 @@ use super::constraints::{
 };
 use super::damping::{RigidMotion, damp_plain, damp_rigid};
 use super::model::{ClothModel, EdgeKind};
+use super::ordering::{apply_order, colour_order};
 use super::settings::{DampingMode, SolverMethod, SolverSettings};
 use super::state::ClothState;
+use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
 use crate::error::ClothError;
+
+/// Edges and stretch limits are swept as this many interleaved streams, each a contiguous
+/// part of the sorted list: consecutive projections then touch distant particles and overlap
+/// in the processor, while each stream keeps its lexicographic order (see `ClothSim::new`).
+/// Measured on S1 at N = 64, 8 x 4: 1 stream 15.6 ms per frame and 0.89% max strain, 2
+/// streams 12.9 ms and 0.92%, 4 streams 12.5 ms and 1.35%.
+const STREAMS: usize = 2;
 
 /// How many nearest pinned particles each free particle is tethered to.
 const TETHERS_PER_PARTICLE: usize = 4;
@@ -43,6 +52,7 @@ pub struct ClothSim {
     state: ClothState,
     pins: Vec<Pin>,
     tethers: Vec<Tether>,
+    stretch_limits: Vec<StretchLimit>,
     planes: Vec<Plane>,
     edge_lambdas: Vec<f32>,
     bend_lambdas: Vec<f32>,
@@ -51,10 +61,21 @@ pub struct ClothSim {
 
 impl ClothSim {
     /// A cloth at rest in its model's rest shape, with no pins.
-    pub fn new(model: ClothModel) -> Self {
+    pub fn new(mut model: ClothModel) -> Self {
         let state = ClothState::at_rest(&model);
         let n = model.particle_count();
+        let stretch_limits = straight_line_limits(&model.rest_positions, &model.edges);
+        // Edges and limits keep their sorted order: a lexicographic Gauss-Seidel sweep carries
+        // a correction across the whole sheet in its direction, which a colour order does not
+        // (measured on S1 at N = 64, 8 x 2: max strain 1.35% sorted, 1.7% with coloured
+        // edges, 2.3% with coloured edges and limits, for a 13% shorter frame).
+        // Bending pairs are expensive enough to gain from overlapping (see
+        // [`super::ordering`]).
+        let pair_particles: Vec<[u32; 4]> =
+            model.bending_pairs.iter().map(|p| p.particles).collect();
+        apply_order(&mut model.bending_pairs, &colour_order(&pair_particles, n));
         Self {
+            stretch_limits,
             edge_lambdas: vec![0.0; model.edges.len()],
             bend_lambdas: vec![0.0; model.bending_pairs.len()],
             contact_push: vec![0.0; n],
@@ -91,6 +112,11 @@ impl ClothSim {
     /// The long-range attachments currently built.
     pub fn tethers(&self) -> &[Tether] {
         &self.tethers
+    }
+
+    /// The long-range stretch limits along the straight lines of the rest shape.
+    pub fn stretch_limits(&self) -> &[StretchLimit] {
+        &self.stretch_limits
     }
 
     /// Pins `particles` where they are now (replacing any earlier pins) and rebuilds the
@@ -208,6 +234,8 @@ impl ClothSim {
                 });
             }
         }
+        // Consecutive tethers of different particles do not wait for each other.
+        self.tethers.sort_by_key(|t| t.anchor);
     }
 
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
@@ -217,8 +245,10 @@ impl ClothSim {
     /// Each substep of length `h`:
     /// 1. predict: `x_prev = x`, `x += h v + h^2/2 a` for free particles; pins move to their
     ///    interpolated targets;
-    /// 2. project, `iterations` times, in this order: edges, bending pairs, tethers, planes
-    ///    (multipliers reset first);
+    /// 2. project, `iterations` times, in this order: stretch limits and tethers (the
+    ///    long-range constraints), edges, bending pairs (first iteration only: bending is soft
+    ///    and its projection costs about ten distance projections), planes (multipliers reset
+    ///    first);
     /// 3. velocities: `v = (x - x_prev) / h + h/2 a`;
     /// 4. contacts with planes: the approaching normal velocity is removed and the tangential
     ///    one reduced by Coulomb friction (by at most `mu` times the normal velocity change the
@@ -274,16 +304,39 @@ impl ClothSim {
             self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
             self.contact_push.fill(0.0);
-            for _ in 0..iterations {
-                for (edge, lambda) in self.model.edges.iter().zip(&mut self.edge_lambdas) {
-                    project_distance(x, w, edge.particles, edge.rest_length, stretch, lambda);
-                }
-                for (pair, lambda) in self.model.bending_pairs.iter().zip(&mut self.bend_lambdas) {
-                    project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
-                }
+            for iteration in 0..iterations {
                 if settings.long_range_attachments {
+                    let limits = &self.stretch_limits;
+                    let chunk = limits.len().div_ceil(STREAMS);
+                    for i in 0..chunk {
+                        for stream in 0..STREAMS {
+                            if let Some(limit) = limits.get(i + stream * chunk) {
+                                project_stretch_limit(x, w, limit);
+                            }
+                        }
+                    }
                     for tether in &self.tethers {
                         project_tether(x, tether);
+                    }
+                }
+                let edges = &self.model.edges;
+                let chunk = edges.len().div_ceil(STREAMS);
+                for i in 0..chunk {
+                    for stream in 0..STREAMS {
+                        let k = i + stream * chunk;
+                        if let (Some(e), Some(lambda)) =
+                            (edges.get(k), self.edge_lambdas.get_mut(k))
+                        {
+                            project_distance(x, w, e.particles, e.rest_length, stretch, lambda);
+                        }
+                    }
+                }
+                // Bending is soft and costs ten distance projections: once per substep.
+                if iteration == 0 {
+                    for (pair, lambda) in
+                        self.model.bending_pairs.iter().zip(&mut self.bend_lambdas)
+                    {
+                        project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
                     }
                 }
                 for plane in &self.planes {
