@@ -10,18 +10,29 @@ use bevy::transform::TransformPlugin;
 use bevy_drape::prelude::*;
 
 fn app() -> App {
+    app_with(DrapePlugins::default())
+}
+
+/// A headless App with `drape`, stepping 1/64 s per update.
+fn app_with(drape: DrapePlugins) -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
         TransformPlugin,
         AssetPlugin::default(),
         MeshPlugin,
-        DrapePlugins::default(),
+        drape,
     ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
         1.0 / 64.0,
     )));
     app
+}
+
+fn add_grid(app: &mut App, grid: &GridDesc) -> Handle<Mesh> {
+    app.world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(grid_mesh(grid))
 }
 
 fn positions(app: &App, entity: Entity) -> Vec<Vec3> {
@@ -37,10 +48,7 @@ fn positions(app: &App, entity: Entity) -> Vec<Vec3> {
 fn a_cloth_entity_falls_writes_its_mesh_and_keeps_its_pins() {
     let mut app = app();
     let grid = GridDesc::square(1.0, 12, Vec3::ZERO);
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(&mut app, &grid);
     let pins = [grid.index(0, 0), grid.index(11, 0)];
     let cloth = app
         .world_mut()
@@ -78,10 +86,7 @@ fn a_cloth_entity_falls_writes_its_mesh_and_keeps_its_pins() {
 fn moving_the_cloth_entity_moves_its_pins_and_an_attachment_follows_its_target() {
     let mut app = app();
     let grid = GridDesc::square(1.0, 6, Vec3::ZERO);
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(&mut app, &grid);
     let bar = app
         .world_mut()
         .spawn(Transform::from_xyz(1.0, 2.0, 0.0))
@@ -195,10 +200,7 @@ fn bad_meshes_are_refused_with_an_error_component_and_the_app_keeps_running() {
 #[test]
 fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
     let mut app = app();
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&GridDesc::square(2.0, 5, Vec3::ZERO)));
+    let mesh = add_grid(&mut app, &GridDesc::square(2.0, 5, Vec3::ZERO));
     let cloth = app
         .world_mut()
         .spawn((Mesh3d(mesh), Cloth::default(), ClothSettings::default()))
@@ -242,4 +244,19 @@ fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
         .sim()
         .state();
     assert_eq!(now, &frozen);
+}
+
+#[test]
+fn the_simulation_schedule_can_be_chosen() {
+    let mut app = app_with(DrapePlugins::new(FixedUpdate));
+    let mesh = add_grid(&mut app, &GridDesc::square(1.0, 4, Vec3::ZERO));
+    let cloth = app.world_mut().spawn((Mesh3d(mesh), Cloth::default())).id();
+    for _ in 0..11 {
+        app.update();
+    }
+    // 10 fixed steps of free fall from rest: y = -g t^2 / 2 at t = 10/64 s.
+    let t = 10.0 / 64.0;
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let y = sim.rigid_motion().unwrap().center_of_mass.y;
+    assert!((y + 0.5 * 9.81 * t * t).abs() < 1e-4, "y = {y}");
 }

@@ -16,8 +16,8 @@ use crate::error::ClothError;
 /// Edges and stretch limits are swept as this many interleaved streams, each a contiguous
 /// part of the sorted list: consecutive projections then touch distant particles and overlap
 /// in the processor, while each stream keeps its lexicographic order (see `ClothSim::new`).
-/// Measured on S1 at N = 64, 8 x 4: 1 stream 15.6 ms per frame and 0.89% max strain, 2
-/// streams 12.9 ms and 0.92%, 4 streams 12.5 ms and 1.35%.
+/// Measured on S1 at N = 64, 8 x 4, before the limits overlapped: 1 stream 15.6 ms per frame
+/// and 0.89% max strain, 2 streams 12.9 ms and 0.92%, 4 streams 12.5 ms and 1.35%.
 const STREAMS: usize = 2;
 
 /// How many nearest pinned particles each free particle is tethered to.
@@ -67,8 +67,9 @@ impl ClothSim {
         let stretch_limits = straight_line_limits(&model.rest_positions, &model.edges);
         // Edges and limits keep their sorted order: a lexicographic Gauss-Seidel sweep carries
         // a correction across the whole sheet in its direction, which a colour order does not
-        // (measured on S1 at N = 64, 8 x 2: max strain 1.35% sorted, 1.7% with coloured
-        // edges, 2.3% with coloured edges and limits, for a 13% shorter frame).
+        // (measured on S1 at N = 64, 8 x 2, before the limits overlapped: max strain 1.35%
+        // sorted, 1.7% with coloured edges, 2.3% with coloured edges and limits, for a 13%
+        // shorter frame).
         // Bending pairs are expensive enough to gain from overlapping (see
         // [`super::ordering`]).
         let pair_particles: Vec<[u32; 4]> =

@@ -12,8 +12,11 @@
 //! them without stretching some edge of the run. So the unilateral constraint
 //! `|x_i - x_j| <= L_ij` is exact: it never holds an unstretched cloth back (the line may bend
 //! and fold freely, only lengthening is refused), and a single projection of it moves tension
-//! `k` edges at once. Limits are made at the scales `k` = 2, 4, 8, ... along every line, so a
-//! sweep carries tension across the cloth in about `log2(n)` projections.
+//! `k` edges at once. Limits are made at the scales `k` = 2, 4, 8, ... along every line,
+//! starting every `k / 2` edges so that no point of a line is a boundary at every scale, and
+//! a sweep carries tension across the cloth in about `log2(n)` projections. Measured on S1 at
+//! N = 64, 8 substeps x 2 iterations: max strain 1.39% with starts every `k` edges (the rows
+//! at multiples of 16 and 32 stretched most), 0.95% with starts every `k / 2`.
 //!
 //! Lines are found from the rest shape: an edge `a -> b` continues with the edge `b -> c`
 //! that points the same way within [`STRAIGHT_COS`]. On a curved or irregular mesh there are
@@ -131,16 +134,18 @@ pub fn straight_line_limits(rest: &[Vec3], edges: &[Edge]) -> Vec<StretchLimit> 
             let edges_on_line = line.len() - 1;
             let mut k = 2;
             while k <= edges_on_line {
+                // Starts every k/2 edges, so no point of the line is a boundary at every scale.
+                let mut last_end = 0;
                 let mut i = 0;
                 while i + k <= edges_on_line {
                     limits.push(StretchLimit {
                         particles: [line[i], line[i + k]],
                         length: cumulative[i + k] - cumulative[i],
                     });
-                    i += k;
+                    last_end = i + k;
+                    i += k / 2;
                 }
-                // The tail the stride missed.
-                if i < edges_on_line && edges_on_line - k > 0 && i != edges_on_line - k {
+                if last_end < edges_on_line {
                     let j = edges_on_line - k;
                     limits.push(StretchLimit {
                         particles: [line[j], line[edges_on_line]],
