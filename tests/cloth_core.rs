@@ -368,6 +368,22 @@ fn bad_input_gives_typed_errors_and_warnings() {
         ..Default::default()
     };
     assert!(bad.validate().is_err());
+    let one_sweep = SolverSettings {
+        iterations: 1,
+        ..Default::default()
+    };
+    assert!(matches!(
+        one_sweep.validate(),
+        Err(ClothError::InvalidSetting {
+            name: "iterations",
+            ..
+        })
+    ));
+    let one_sweep_no_long_range = SolverSettings {
+        long_range_attachments: false,
+        ..one_sweep
+    };
+    assert!(one_sweep_no_long_range.validate().is_ok());
 }
 
 #[test]
