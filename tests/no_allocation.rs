@@ -1,0 +1,53 @@
+//! The solver's step allocates nothing: every buffer is made when the cloth is built.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use bevy_drape::cloth::{Plane, SolverSettings};
+use bevy_drape::scenes::{GRAVITY, HangingCloth};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+// SAFETY: forwards to the system allocator, only counting calls.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: same contract as the caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn stepping_allocates_nothing() {
+    let scene = HangingCloth { n: 12 };
+    let mut sim = scene.build();
+    sim.set_planes(&[Plane::ground(0.5)]);
+    let settings = SolverSettings::default();
+    sim.step(&settings, GRAVITY, 1.0 / 60.0);
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    for frame in 0..30 {
+        for pin in scene.pins() {
+            let target = sim.model().rest_positions[pin as usize];
+            sim.set_pin_target(pin, target + bevy::math::Vec3::X * (frame as f32 * 0.01));
+        }
+        sim.step(&settings, GRAVITY, 1.0 / 60.0);
+    }
+    let _ = sim.strain();
+    assert_eq!(ALLOCATIONS.load(Ordering::Relaxed), before);
+}
