@@ -3,7 +3,7 @@
 //! ```text
 //! cargo run --release --example scenes -- s1 --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd] [--stiffness 0.5] [--stretch-compliance 0] [--bend-compliance 500]
-//!     [--no-tethers] [--runs 3] [--frames 120]
+//!     [--no-tethers] [--dihedral] [--runs 3] [--frames 120]
 //! ```
 //!
 //! `ms_per_frame` is the median over all frames of all runs (model build excluded); the other
@@ -42,6 +42,7 @@ fn run() -> Result<(), String> {
             "--stiffness" => stiffness = parse(&value()?)?,
             "--method" => method = value()?,
             "--no-tethers" => settings.long_range_attachments = false,
+            "--dihedral" => settings.isometric_bending = false,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -74,10 +75,15 @@ fn run() -> Result<(), String> {
                 .map(|s| format!("{:.3}", s.time))
                 .collect();
             println!(
-                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"long_range\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
+                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
                 settings.substeps,
                 settings.iterations,
                 settings.long_range_attachments,
+                if settings.isometric_bending {
+                    "isometric"
+                } else {
+                    "dihedral"
+                },
                 median(&all_frames) * 1e3,
                 run.max_strain,
                 run.mean_strain,

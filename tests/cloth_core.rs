@@ -444,3 +444,55 @@ fn the_step_is_deterministic() {
     };
     assert_eq!(run(), run());
 }
+
+/// Tip sag of a clamped horizontal strip held up by its bending stiffness.
+fn cantilever_sag(isometric: bool, bend_compliance: f32) -> f32 {
+    let grid = GridDesc {
+        size: bevy::math::Vec2::new(0.15, 0.1),
+        vertices: bevy::math::UVec2::new(7, 5),
+        orientation: bevy::math::Quat::IDENTITY,
+        origin: Vec3::new(0.0, 1.0, 0.0),
+    };
+    let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+    let clamped: Vec<u32> = (0..5)
+        .flat_map(|j| [grid.index(0, j), grid.index(1, j)])
+        .collect();
+    sim.set_pins(&clamped).unwrap();
+    let settings = SolverSettings {
+        substeps: 32,
+        iterations: 2,
+        bend_compliance,
+        isometric_bending: isometric,
+        damping: 8.0,
+        damping_mode: DampingMode::Plain,
+        ..Default::default()
+    };
+    for _ in 0..180 {
+        sim.step(&settings, GRAVITY, DT);
+    }
+    let tip = (0..5)
+        .map(|j| sim.state().positions[grid.index(6, j) as usize].y)
+        .sum::<f32>()
+        / 5.0;
+    1.0 - tip
+}
+
+#[test]
+fn isometric_and_dihedral_bending_hold_a_cantilever_alike() {
+    let stiff_iso = cantilever_sag(true, 10.0);
+    let stiff_dihedral = cantilever_sag(false, 10.0);
+    let soft_iso = cantilever_sag(true, 1000.0);
+    let soft_dihedral = cantilever_sag(false, 1000.0);
+    println!(
+        "cantilever sag: compliance 10: isometric {stiff_iso}, dihedral {stiff_dihedral}; \
+         compliance 1000: isometric {soft_iso}, dihedral {soft_dihedral}"
+    );
+    // Bending is what holds the strip: a softer one sags clearly more.
+    assert!(soft_dihedral > 5.0 * stiff_dihedral);
+    for (iso, dihedral) in [(stiff_iso, stiff_dihedral), (soft_iso, soft_dihedral)] {
+        assert!(
+            (iso - dihedral).abs() < 0.03 * dihedral,
+            "isometric {iso} vs dihedral {dihedral}"
+        );
+    }
+}

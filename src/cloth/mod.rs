@@ -3,6 +3,7 @@
 
 pub mod constraints;
 pub mod damping;
+pub mod isometric_bending;
 pub mod mesh;
 pub mod model;
 pub mod ordering;

@@ -6,7 +6,8 @@ use super::constraints::{
     Plane, Projection, Tether, project_bending, project_distance, project_plane, project_tether,
 };
 use super::damping::{RigidMotion, damp_plain, damp_rigid};
-use super::model::{ClothModel, EdgeKind};
+use super::isometric_bending::{IsometricPair, project_isometric};
+use super::model::{BendingPair, ClothModel, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::settings::{DampingMode, SolverMethod, SolverSettings};
 use super::state::ClothState;
@@ -56,6 +57,10 @@ pub struct ClothSim {
     planes: Vec<Plane>,
     edge_lambdas: Vec<f32>,
     bend_lambdas: Vec<f32>,
+    isometric_pairs: Vec<IsometricPair>,
+    isometric_lambdas: Vec<Vec3A>,
+    curved_pairs: Vec<BendingPair>,
+    curved_lambdas: Vec<f32>,
     contact_push: Vec<f32>,
 }
 
@@ -75,10 +80,23 @@ impl ClothSim {
         let pair_particles: Vec<[u32; 4]> =
             model.bending_pairs.iter().map(|p| p.particles).collect();
         apply_order(&mut model.bending_pairs, &colour_order(&pair_particles, n));
+        let mut isometric_pairs = Vec::new();
+        let mut curved_pairs = Vec::new();
+        for pair in &model.bending_pairs {
+            let rest = pair.particles.map(|i| model.rest_positions[i as usize]);
+            match IsometricPair::new(pair.particles, rest) {
+                Some(iso) => isometric_pairs.push(iso),
+                None => curved_pairs.push(*pair),
+            }
+        }
         Self {
             stretch_limits,
             edge_lambdas: vec![0.0; model.edges.len()],
             bend_lambdas: vec![0.0; model.bending_pairs.len()],
+            isometric_lambdas: vec![Vec3A::ZERO; isometric_pairs.len()],
+            curved_lambdas: vec![0.0; curved_pairs.len()],
+            isometric_pairs,
+            curved_pairs,
             contact_push: vec![0.0; n],
             model,
             state,
@@ -304,6 +322,8 @@ impl ClothSim {
             // 2. Project.
             self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
+            self.isometric_lambdas.fill(Vec3A::ZERO);
+            self.curved_lambdas.fill(0.0);
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
                 if settings.long_range_attachments {
@@ -332,8 +352,25 @@ impl ClothSim {
                         }
                     }
                 }
-                // Bending is soft and costs ten distance projections: once per substep.
-                if iteration == 0 {
+                // Bending is soft and costs several distance projections: once per substep.
+                let isometric = match bend {
+                    Projection::Xpbd { alpha_tilde } if settings.isometric_bending => {
+                        Some(alpha_tilde)
+                    }
+                    // Plain PBD has no compliance to calibrate: it keeps the dihedral form.
+                    _ => None,
+                };
+                if let (0, Some(alpha_tilde)) = (iteration, isometric) {
+                    for (pair, lambda) in
+                        self.isometric_pairs.iter().zip(&mut self.isometric_lambdas)
+                    {
+                        let scale = pair.compliance_scale * pair.compliance_scale;
+                        project_isometric(x, w, pair, alpha_tilde * scale, lambda);
+                    }
+                    for (pair, lambda) in self.curved_pairs.iter().zip(&mut self.curved_lambdas) {
+                        project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
+                    }
+                } else if iteration == 0 {
                     for (pair, lambda) in
                         self.model.bending_pairs.iter().zip(&mut self.bend_lambdas)
                     {
