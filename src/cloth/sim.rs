@@ -69,7 +69,17 @@ impl ClothSim {
     pub fn new(mut model: ClothModel) -> Self {
         let state = ClothState::at_rest(&model);
         let n = model.particle_count();
-        let stretch_limits = straight_line_limits(&model.rest_positions, &model.edges);
+        // Lines run along structural edges only: a woven cloth stretches along its bias
+        // (the grid diagonals), so limiting the diagonals would hold it too tight. Measured on
+        // S1 at N = 64, 8 x 2: 6.2 ms and 0.98% max strain, against 7.3 ms and 0.96% with
+        // diagonal lines too.
+        let structural: Vec<_> = model
+            .edges
+            .iter()
+            .copied()
+            .filter(|e| e.kind == EdgeKind::Structural)
+            .collect();
+        let stretch_limits = straight_line_limits(&model.rest_positions, &structural);
         // Edges and limits keep their sorted order: a lexicographic Gauss-Seidel sweep carries
         // a correction across the whole sheet in its direction, which a colour order does not
         // (measured on S1 at N = 64, 8 x 2, before the limits overlapped: max strain 1.35%
