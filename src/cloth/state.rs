@@ -24,10 +24,7 @@ impl ClothState {
     pub fn at_rest(model: &ClothModel) -> Self {
         let positions: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
         let inverse_masses = (0..model.particle_count())
-            .map(|i| {
-                let m = model.mass(i);
-                if m > 0.0 { 1.0 / m } else { 0.0 }
-            })
+            .map(|i| inverse_mass(model.mass(i)))
             .collect();
         Self {
             previous_positions: positions.clone(),
@@ -46,4 +43,9 @@ impl ClothState {
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
+}
+
+/// `1 / mass`, or 0 (held in place) for a particle without mass.
+pub fn inverse_mass(mass: f32) -> f32 {
+    if mass > 0.0 { 1.0 / mass } else { 0.0 }
 }
