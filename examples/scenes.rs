@@ -2,9 +2,14 @@
 //!
 //! ```text
 //! cargo run --release --example scenes -- s1 --n 64 [--substeps 8] [--iterations 1]
-//!     [--method xpbd|pbd] [--stiffness 0.5] [--stretch-compliance 0] [--bend-compliance 500]
-//!     [--no-tethers] [--dihedral] [--runs 3] [--frames 120]
+//!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
+//!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
+//!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
+//!     [--runs 3] [--frames 120]
 //! ```
+//!
+//! `--k-*` set the spring stiffnesses (N/m) of the mass-spring and hybrid methods;
+//! `--auto-substeps` lets them raise the substep count to their stability bound.
 //!
 //! `ms_per_frame` is the median over all frames of all runs (model build excluded); the other
 //! figures come from the last run (every run is identical: the solver is deterministic).
@@ -41,6 +46,10 @@ fn run() -> Result<(), String> {
             "--damping" => settings.damping = parse(&value()?)?,
             "--stiffness" => stiffness = parse(&value()?)?,
             "--method" => method = value()?,
+            "--k-structural" => settings.springs.structural.stiffness = parse(&value()?)?,
+            "--k-shear" => settings.springs.shear.stiffness = parse(&value()?)?,
+            "--k-bend" => settings.springs.bend.stiffness = parse(&value()?)?,
+            "--auto-substeps" => settings.auto_substeps = true,
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
             other => return Err(format!("unknown option {other}")),
@@ -49,7 +58,13 @@ fn run() -> Result<(), String> {
     settings.method = match method.as_str() {
         "xpbd" => SolverMethod::Xpbd,
         "pbd" => SolverMethod::Pbd { stiffness },
-        other => return Err(format!("unknown method {other} (xpbd, pbd)")),
+        "mass-spring" => SolverMethod::MassSpring,
+        "hybrid" => SolverMethod::Hybrid,
+        other => {
+            return Err(format!(
+                "unknown method {other} (xpbd, pbd, mass-spring, hybrid)"
+            ));
+        }
     };
     settings.validate().map_err(|e| e.to_string())?;
     if n < 2 {
@@ -75,8 +90,9 @@ fn run() -> Result<(), String> {
                 .map(|s| format!("{:.3}", s.time))
                 .collect();
             println!(
-                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{}}}",
+                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"substeps_used\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{},\"diverged\":{}}}",
                 settings.substeps,
+                run.substeps,
                 settings.iterations,
                 settings.long_range_attachments,
                 if settings.isometric_bending {
@@ -90,7 +106,11 @@ fn run() -> Result<(), String> {
                 times.join(","),
                 corner.join(","),
                 center.join(","),
-                run.finite
+                run.finite,
+                match run.divergence {
+                    Some((frame, d)) => format!("{{\"frame\":{frame},\"why\":\"{d}\"}}"),
+                    None => "null".into(),
+                }
             );
             Ok(())
         }

@@ -18,11 +18,12 @@ pub mod prelude {
     pub use crate::DrapePlugins;
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
-        Cloth, ClothBuildError, ClothPlugin, ClothSettings, ClothSimulation, DefaultClothSettings,
-        DrapeSettings, VertexAttachment,
+        Cloth, ClothBuildError, ClothDiverged, ClothPlugin, ClothSettings, ClothSimulation,
+        DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
     pub use crate::cloth::{
-        ClothModel, ClothSim, DampingMode, GridDesc, SolverMethod, SolverSettings,
+        ClothModel, ClothSim, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
+        SolverSettings, SpringConstants, SpringSettings,
     };
     pub use crate::error::{ClothError, ClothWarning};
     pub use crate::schedule::DrapeSystems;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use bevy::math::Vec3;
 
-use crate::cloth::{ClothModel, ClothSim, GridDesc, SolverSettings};
+use crate::cloth::{ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SolverSettings};
 
 /// Frame rate of the standard scenes, Hz.
 pub const FRAME_RATE: f32 = 60.0;
@@ -55,18 +55,26 @@ impl HangingCloth {
         sim
     }
 
-    /// Runs `frames` frames at [`FRAME_RATE`] and records what S1 reports.
+    /// Runs `frames` frames at [`FRAME_RATE`] and records what S1 reports. The run stops
+    /// early if the cloth diverges ([`DivergenceBounds::default`]).
     pub fn run(&self, settings: &SolverSettings, frames: u32) -> SceneRun {
         let mut sim = self.build();
         let dt = 1.0 / FRAME_RATE;
         let mut samples = Vec::new();
         let mut frame_seconds = Vec::with_capacity(frames as usize);
         let mut finite = true;
+        let mut divergence = None;
+        let mut substeps = 0;
         for frame in 1..=frames {
             let start = Instant::now();
             sim.step(settings, GRAVITY, dt);
             frame_seconds.push(start.elapsed().as_secs_f64());
+            substeps = substeps.max(sim.last_substeps());
             finite &= sim.is_finite();
+            if let Some(d) = sim.divergence(&DivergenceBounds::default()) {
+                divergence = Some((frame, d));
+                break;
+            }
             if frame == 30 || frame == 60 || frame == 120 || frame == frames {
                 let x = &sim.state().positions;
                 samples.push(Sample {
@@ -84,6 +92,8 @@ impl HangingCloth {
             mean_strain: strain.mean,
             samples,
             finite,
+            divergence,
+            substeps,
             sim,
         }
     }
@@ -113,6 +123,10 @@ pub struct SceneRun {
     pub samples: Vec<Sample>,
     /// Whether the state stayed finite throughout.
     pub finite: bool,
+    /// The frame (from 1) at which the cloth diverged and how; the run stopped there.
+    pub divergence: Option<(u32, Divergence)>,
+    /// The most substeps a frame took.
+    pub substeps: u32,
     /// The cloth at the end.
     pub sim: ClothSim,
 }

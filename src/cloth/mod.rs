@@ -4,6 +4,7 @@
 pub mod constraints;
 pub mod damping;
 pub mod isometric_bending;
+pub mod mass_spring;
 pub mod mesh;
 pub mod model;
 pub mod ordering;
@@ -14,7 +15,8 @@ pub mod state;
 pub mod stretch_limits;
 
 pub use constraints::{Plane, Tether};
+pub use mass_spring::{SpringConstants, SpringSet, SpringSettings};
 pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
-pub use settings::{DampingMode, SolverMethod, SolverSettings};
-pub use sim::{ClothSim, Pin, StrainStats};
+pub use settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
+pub use sim::{ClothSim, Divergence, Pin, StrainStats};
 pub use state::ClothState;

@@ -66,6 +66,10 @@ pub struct ClothModel {
     pub point_masses: Vec<f32>,
     /// Areal density, kg/m^2.
     pub density: f32,
+    /// `Some((nx, nz))` when the mesh is a regular grid of `nx` x `nz` vertices laid out as
+    /// [`GridDesc::mesh`] lays it out (recognised by [`ClothModel::from_triangles`]); its quad
+    /// diagonals are then [`EdgeKind::Shear`].
+    pub grid: Option<UVec2>,
     /// What was left out while building.
     pub warnings: Vec<ClothWarning>,
 }
@@ -179,6 +183,42 @@ fn check_density(density: f32) -> Result<(), ClothError> {
 /// squared.
 const DEGENERATE_RELATIVE_AREA: f32 = 1e-6;
 
+/// Recognises a mesh laid out as [`GridDesc::mesh`] lays it out: vertex `(i, j)` at index
+/// `j nx + i` on a regular lattice, every grid edge present, one diagonal per quad and two
+/// triangles per quad. `edges` must be sorted by their particles. Returns `(nx, nz)`.
+fn recognise_grid(positions: &[Vec3], triangle_count: usize, edges: &[Edge]) -> Option<UVec2> {
+    let n = positions.len();
+    let has_edge = |a: usize, b: usize| {
+        edges
+            .binary_search_by_key(&[a as u32, b as u32], |e| e.particles)
+            .is_ok()
+    };
+    (2..=n / 2)
+        .filter(|nx| n.is_multiple_of(*nx))
+        .find_map(|nx| {
+            let nz = n / nx;
+            let quads = (nx - 1) * (nz - 1);
+            if triangle_count != 2 * quads
+                || edges.len() != (nx - 1) * nz + nx * (nz - 1) + quads
+                || !has_edge(0, 1)
+                || !has_edge(0, nx)
+            {
+                return None;
+            }
+            let origin = positions[0];
+            let (di, dj) = (positions[1] - origin, positions[nx] - origin);
+            let tolerance = 1e-4 * di.length().max(dj.length());
+            let on_lattice = (0..n).all(|k| {
+                let (i, j) = ((k % nx) as f32, (k / nx) as f32);
+                positions[k].distance(origin + di * i + dj * j) <= tolerance
+            });
+            let all_grid_edges = (0..n).all(|k| {
+                (k % nx == nx - 1 || has_edge(k, k + 1)) && (k + nx >= n || has_edge(k, k + nx))
+            });
+            (on_lattice && all_grid_edges).then_some(UVec2::new(nx as u32, nz as u32))
+        })
+}
+
 impl ClothModel {
     /// Builds a cloth from a triangle mesh: `indices` holds three vertex indices per triangle.
     ///
@@ -281,6 +321,15 @@ impl ClothModel {
             start = end;
         }
 
+        let grid = recognise_grid(positions, triangles.len(), &edges);
+        if grid.is_some() {
+            for edge in &mut edges {
+                let [a, b] = edge.particles;
+                if b - a != 1 && grid.is_some_and(|g| b - a != g.x) {
+                    edge.kind = EdgeKind::Shear;
+                }
+            }
+        }
         Ok(Self {
             rest_positions: positions.to_vec(),
             triangles,
@@ -289,23 +338,16 @@ impl ClothModel {
             area_shares,
             point_masses: vec![0.0; positions.len()],
             density,
+            grid,
             warnings,
         })
     }
 
     /// Builds the grid cloth of [`GridDesc`]: grid edges are [`EdgeKind::Structural`], quad
-    /// diagonals [`EdgeKind::Shear`].
+    /// diagonals [`EdgeKind::Shear`], and [`ClothModel::grid`] is set.
     pub fn grid(desc: &GridDesc, density: f32) -> Result<Self, ClothError> {
         let mesh = desc.mesh();
-        let mut model = Self::from_triangles(&mesh.positions, &mesh.indices, density)?;
-        let mut shear = mesh.shear_edges;
-        shear.sort_unstable();
-        for edge in &mut model.edges {
-            if shear.binary_search(&edge.particles).is_ok() {
-                edge.kind = EdgeKind::Shear;
-            }
-        }
-        Ok(model)
+        Self::from_triangles(&mesh.positions, &mesh.indices, density)
     }
 
     /// Builds a model of point masses joined by distance constraints (ropes, chains, tests):
@@ -352,6 +394,7 @@ impl ClothModel {
             area_shares: vec![0.0; positions.len()],
             point_masses,
             density: 1.0,
+            grid: None,
             warnings: Vec::new(),
         })
     }

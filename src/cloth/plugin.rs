@@ -14,8 +14,8 @@ use bevy::transform::helper::TransformHelper;
 use super::constraints::Plane;
 use super::mesh::{compute_normals, mesh_triangles};
 use super::model::ClothModel;
-use super::settings::SolverSettings;
-use super::sim::ClothSim;
+use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
+use super::sim::{ClothSim, Divergence};
 use crate::error::ClothError;
 use crate::schedule::DrapeSystems;
 
@@ -85,6 +85,10 @@ pub struct ClothSettings {
     pub ground: Option<f32>,
     /// An axis-aligned box `(min, max)` the particles stay inside, if any. Default: `None`.
     pub container: Option<(Vec3, Vec3)>,
+    /// When the cloth counts as diverged, checked after every fixed step.
+    pub divergence: DivergenceBounds,
+    /// What happens to a diverged cloth. Default: [`OnDivergence::Freeze`].
+    pub on_divergence: OnDivergence,
 }
 
 impl Default for ClothSettings {
@@ -94,8 +98,35 @@ impl Default for ClothSettings {
             solver: SolverSettings::default(),
             ground: None,
             container: None,
+            divergence: DivergenceBounds::default(),
+            on_divergence: OnDivergence::Freeze,
         }
     }
+}
+
+/// What happens to a cloth that diverges. Either way a [`ClothDiverged`] message is sent and
+/// the mesh never receives the diverged positions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OnDivergence {
+    /// Put the cloth back where it was before the diverging step, at rest, and stop stepping
+    /// it until its [`ClothSettings`] change (or [`ClothSimulation::unfreeze`]).
+    #[default]
+    Freeze,
+    /// Put the cloth back in its rest shape, at rest, and keep stepping.
+    Reset,
+}
+
+/// Sent when a cloth diverges (see [`DivergenceBounds`]).
+#[derive(Message, Clone, Copy, Debug, PartialEq)]
+pub struct ClothDiverged {
+    /// The cloth entity.
+    pub cloth: Entity,
+    /// The method it was stepped with.
+    pub method: SolverMethod,
+    /// What went wrong.
+    pub divergence: Divergence,
+    /// What was done about it.
+    pub response: OnDivergence,
 }
 
 impl ClothSettings {
@@ -143,9 +174,21 @@ pub struct ClothSimulation {
     normals: Vec<Vec3>,
     planes: Vec<Plane>,
     warned_invalid_settings: bool,
+    /// The settings the cloth diverged with, while it is frozen.
+    frozen_with: Option<ClothSettings>,
 }
 
 impl ClothSimulation {
+    /// Whether the cloth is frozen after diverging ([`OnDivergence::Freeze`]).
+    pub fn is_frozen(&self) -> bool {
+        self.frozen_with.is_some()
+    }
+
+    /// Lets a frozen cloth step again.
+    pub fn unfreeze(&mut self) {
+        self.frozen_with = None;
+    }
+
     /// The simulated cloth.
     pub fn sim(&self) -> &ClothSim {
         &self.sim
@@ -180,6 +223,7 @@ impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<DefaultClothSettings>()
             .init_resource::<DrapeSettings>()
+            .add_message::<ClothDiverged>()
             .add_systems(self.schedule, build_cloths.in_set(DrapeSystems::Prepare))
             .add_systems(self.schedule, step_cloths.in_set(DrapeSystems::Step))
             .add_systems(
@@ -216,6 +260,7 @@ fn build_simulation(
             normals: Vec::new(),
             planes: Vec::new(),
             warned_invalid_settings: false,
+            frozen_with: None,
         },
         warnings,
     ))
@@ -270,13 +315,15 @@ fn build_cloths(
     }
 }
 
-/// Moves pins and attachments to this step's targets and steps every cloth.
+/// Moves pins and attachments to this step's targets, steps every cloth and checks it for
+/// divergence.
 fn step_cloths(
     mut cloths: Query<(Entity, &Cloth, &mut ClothSimulation, Option<&ClothSettings>)>,
     defaults: Res<DefaultClothSettings>,
     drape: Res<DrapeSettings>,
     time: Res<Time>,
     transforms: TransformHelper,
+    mut diverged: MessageWriter<ClothDiverged>,
 ) {
     let dt = time.delta_secs();
     for (entity, cloth, mut simulation, settings) in &mut cloths {
@@ -286,6 +333,13 @@ fn step_cloths(
         simulation.render_from.clone_from(&sim.state().positions);
         if drape.paused {
             continue;
+        }
+        if let Some(frozen_with) = &simulation.frozen_with {
+            if frozen_with == settings {
+                continue;
+            }
+            info!("cloth {entity}: settings changed, stepping again");
+            simulation.frozen_with = None;
         }
         if let Err(err) = settings.solver.validate() {
             if !simulation.warned_invalid_settings {
@@ -330,12 +384,36 @@ fn step_cloths(
 
         sim.step(&settings.solver, drape.gravity, dt);
 
-        if !sim.is_finite() {
-            error!("cloth {entity} diverged (non-finite state); restoring the previous step");
-            let state = sim.state_mut();
-            state.positions.clone_from(&simulation.render_from);
-            state.previous_positions.clone_from(&simulation.render_from);
-            state.velocities.fill(Vec3A::ZERO);
+        if let Some(divergence) = sim.divergence(&settings.divergence) {
+            let method = settings.solver.method;
+            match settings.on_divergence {
+                OnDivergence::Freeze => {
+                    error!(
+                        "cloth {entity} diverged with {} ({divergence}); frozen at the previous \
+                         step until its settings change",
+                        method.name()
+                    );
+                    let state = sim.state_mut();
+                    state.positions.clone_from(&simulation.render_from);
+                    state.previous_positions.clone_from(&simulation.render_from);
+                    state.velocities.fill(Vec3A::ZERO);
+                    simulation.frozen_with = Some(*settings);
+                }
+                OnDivergence::Reset => {
+                    error!(
+                        "cloth {entity} diverged with {} ({divergence}); reset to its rest shape",
+                        method.name()
+                    );
+                    sim.reset();
+                    simulation.render_from.clone_from(&sim.state().positions);
+                }
+            }
+            diverged.write(ClothDiverged {
+                cloth: entity,
+                method,
+                divergence,
+                response: settings.on_divergence,
+            });
         }
     }
 }

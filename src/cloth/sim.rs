@@ -7,9 +7,10 @@ use super::constraints::{
 };
 use super::damping::{RigidMotion, damp_plain, damp_rigid};
 use super::isometric_bending::{IsometricPair, project_isometric};
-use super::model::{BendingPair, ClothModel, EdgeKind};
+use super::mass_spring::{SpringSet, auto_substeps};
+use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
-use super::settings::{DampingMode, SolverMethod, SolverSettings};
+use super::settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
 use crate::error::ClothError;
@@ -31,6 +32,87 @@ fn for_each_interleaved(len: usize, mut f: impl FnMut(usize)) {
     for i in 0..chunk {
         for stream in 0..STREAMS {
             f(i + stream * chunk);
+        }
+    }
+}
+
+/// Projects the long-range attachments: the stretch limits (interleaved), then the tethers.
+#[inline(always)]
+fn project_long_range(limits: &[StretchLimit], tethers: &[Tether], x: &mut [Vec3A], w: &[f32]) {
+    for_each_interleaved(limits.len(), |k| {
+        if let Some(limit) = limits.get(k) {
+            project_stretch_limit(x, w, limit);
+        }
+    });
+    for tether in tethers {
+        project_tether(x, tether);
+    }
+}
+
+/// Projects the distance constraints of `edges` (interleaved), with their multipliers.
+#[inline(always)]
+fn project_edges(
+    edges: &[Edge],
+    lambdas: &mut [f32],
+    x: &mut [Vec3A],
+    w: &[f32],
+    stretch: Projection,
+) {
+    for_each_interleaved(edges.len(), |k| {
+        if let (Some(e), Some(lambda)) = (edges.get(k), lambdas.get_mut(k)) {
+            project_distance(x, w, e.particles, e.rest_length, stretch, lambda);
+        }
+    });
+}
+
+/// Projects every free particle out of every plane, adding how far it was pushed to `push`.
+#[inline(always)]
+fn project_planes(planes: &[Plane], x: &mut [Vec3A], w: &[f32], thickness: f32, push: &mut [f32]) {
+    for plane in planes {
+        for i in 0..x.len() {
+            if w[i] > 0.0 {
+                push[i] += project_plane(&mut x[i], plane, thickness);
+            }
+        }
+    }
+}
+
+/// Contact velocities for the particles pushed by a plane this substep (`push > 0`, the
+/// distance pushed): the approaching normal velocity is removed and the tangential velocity
+/// reduced by Coulomb friction, by at most `mu` times the normal velocity change `push / h`.
+fn contact_velocities(
+    planes: &[Plane],
+    x: &[Vec3A],
+    v: &mut [Vec3A],
+    push: &[f32],
+    settings: &SolverSettings,
+    inv_h: f32,
+) {
+    for plane in planes {
+        for i in 0..x.len() {
+            if push[i] > 0.0 && plane.normal.dot(x[i]) <= plane.offset + settings.thickness * 1.001
+            {
+                let vn = plane.normal * plane.normal.dot(v[i]).max(0.0);
+                let vt = v[i] - vn;
+                let speed = vt.length();
+                let max_change = settings.friction * push[i] * inv_h;
+                v[i] = vn
+                    + if speed <= max_change {
+                        Vec3A::ZERO
+                    } else {
+                        vt * (1.0 - max_change / speed)
+                    };
+            }
+        }
+    }
+}
+
+/// Damps the velocities by the fraction `k` as [`SolverSettings::damping_mode`] says.
+fn damp(settings: &SolverSettings, k: f32, x: &[Vec3A], v: &mut [Vec3A], w: &[f32]) {
+    if k > 0.0 {
+        match settings.damping_mode {
+            DampingMode::Plain => damp_plain(v, w, k),
+            DampingMode::Rigid => damp_rigid(x, v, w, k),
         }
     }
 }
@@ -59,6 +141,43 @@ pub struct StrainStats {
     pub mean: f32,
 }
 
+/// Why a cloth counts as diverged (see [`ClothSim::divergence`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Divergence {
+    /// A position or velocity is NaN or infinite.
+    NonFinite,
+    /// A structural edge is strained past [`DivergenceBounds::max_strain`].
+    Strain {
+        /// The largest strain.
+        strain: f32,
+    },
+    /// A particle moves faster than [`DivergenceBounds::max_speed`], m/s.
+    Speed {
+        /// The largest speed, m/s.
+        speed: f32,
+    },
+}
+
+impl std::fmt::Display for Divergence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Divergence::NonFinite => write!(f, "a position or velocity is not finite"),
+            Divergence::Strain { strain } => write!(f, "max strain {:.0}%", strain * 100.0),
+            Divergence::Speed { speed } => write!(f, "a particle moves at {speed:.0} m/s"),
+        }
+    }
+}
+
+/// The springs of the mass-spring and hybrid methods, and their scratch memory, built the
+/// first time one of those methods steps.
+#[derive(Clone, Debug)]
+struct SpringScratch {
+    set: SpringSet,
+    forces: Vec<Vec3A>,
+    /// Multipliers of the hybrid method's structural constraints.
+    lambdas: Vec<f32>,
+}
+
 /// One simulated cloth: its [`ClothModel`], its [`ClothState`], its pins and the solver's
 /// scratch memory. [`ClothSim::step`] advances it by one fixed step without allocating.
 #[derive(Clone, Debug)]
@@ -77,6 +196,8 @@ pub struct ClothSim {
     /// they share `bend_lambdas`.
     curved_pairs: Vec<BendingPair>,
     contact_push: Vec<f32>,
+    springs: Option<SpringScratch>,
+    last_substeps: u32,
 }
 
 impl ClothSim {
@@ -127,7 +248,38 @@ impl ClothSim {
             pins: Vec::new(),
             tethers: Vec::new(),
             planes: Vec::new(),
+            springs: None,
+            last_substeps: 0,
         }
+    }
+
+    /// The springs of the mass-spring and hybrid methods, once one of them has stepped (or
+    /// [`ClothSim::springs_mut`] has been called).
+    pub fn springs(&self) -> Option<&SpringSet> {
+        self.springs.as_ref().map(|s| &s.set)
+    }
+
+    /// The springs of the mass-spring and hybrid methods, built now if they are not yet.
+    pub fn springs_mut(&mut self) -> &mut SpringSet {
+        &mut self.spring_scratch().set
+    }
+
+    fn spring_scratch(&mut self) -> &mut SpringScratch {
+        let model = &self.model;
+        self.springs.get_or_insert_with(|| {
+            let set = SpringSet::new(model);
+            SpringScratch {
+                forces: vec![Vec3A::ZERO; model.particle_count()],
+                lambdas: vec![0.0; set.structural_edges.len()],
+                set,
+            }
+        })
+    }
+
+    /// The substeps the last [`ClothSim::step`] took (more than `settings.substeps` with
+    /// automatic substeps).
+    pub fn last_substeps(&self) -> u32 {
+        self.last_substeps
     }
 
     /// The model.
@@ -281,10 +433,13 @@ impl ClothSim {
     }
 
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
-    /// (gravity plus any external acceleration), in `settings.substeps` substeps of
-    /// `settings.iterations` constraint iterations each.
+    /// (gravity plus any external acceleration) with `settings.method`, in
+    /// `settings.substeps` substeps (more with `settings.auto_substeps` for the spring
+    /// methods).
     ///
-    /// Each substep of length `h`:
+    /// [`SolverMethod::MassSpring`] is described in [`ClothSim::step_mass_spring`],
+    /// [`SolverMethod::Hybrid`] in [`ClothSim::step_hybrid`]. XPBD and PBD take
+    /// `settings.iterations` constraint iterations per substep; each substep of length `h`:
     /// 1. predict: `x_prev = x`, `x += h v + h^2/2 a` for free particles; pins move to their
     ///    interpolated targets;
     /// 2. project, `iterations` times, in this order: stretch limits and tethers (the
@@ -300,11 +455,25 @@ impl ClothSim {
     /// consistently (velocity Verlet), so a free particle follows `x0 + v0 t + a t^2 / 2`
     /// exactly, whatever the step.
     pub fn step(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
-        let substeps = settings.substeps.max(1);
-        let iterations = settings.iterations.max(1);
         if !(dt > 0.0 && dt.is_finite()) {
             return;
         }
+        match settings.method {
+            SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
+                self.step_constraints(settings, acceleration, dt)
+            }
+            SolverMethod::MassSpring => self.step_mass_spring(settings, acceleration, dt),
+            SolverMethod::Hybrid => self.step_hybrid(settings, acceleration, dt),
+        }
+        for pin in &mut self.pins {
+            pin.start = pin.end;
+        }
+    }
+
+    fn step_constraints(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+        let substeps = settings.substeps.max(1);
+        self.last_substeps = substeps;
+        let iterations = settings.iterations.max(1);
         let h = dt / substeps as f32;
         let a = Vec3A::from(acceleration);
         let (stretch, bend) = match settings.method {
@@ -319,6 +488,7 @@ impl ClothSim {
             SolverMethod::Pbd { stiffness } => {
                 (Projection::Pbd { stiffness }, Projection::Pbd { stiffness })
             }
+            SolverMethod::MassSpring | SolverMethod::Hybrid => return,
         };
         let isometric = match bend {
             Projection::Xpbd { alpha_tilde } if settings.isometric_bending => Some(alpha_tilde),
@@ -354,22 +524,9 @@ impl ClothSim {
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
                 if settings.long_range_attachments {
-                    let limits = &self.stretch_limits;
-                    for_each_interleaved(limits.len(), |k| {
-                        if let Some(limit) = limits.get(k) {
-                            project_stretch_limit(x, w, limit);
-                        }
-                    });
-                    for tether in &self.tethers {
-                        project_tether(x, tether);
-                    }
+                    project_long_range(&self.stretch_limits, &self.tethers, x, w);
                 }
-                let (edges, lambdas) = (&self.model.edges, &mut self.edge_lambdas);
-                for_each_interleaved(edges.len(), |k| {
-                    if let (Some(e), Some(lambda)) = (edges.get(k), lambdas.get_mut(k)) {
-                        project_distance(x, w, e.particles, e.rest_length, stretch, lambda);
-                    }
-                });
+                project_edges(&self.model.edges, &mut self.edge_lambdas, x, w, stretch);
                 // Bending is soft: once per substep.
                 if iteration == 0 {
                     if let Some(alpha_tilde) = isometric {
@@ -389,14 +546,13 @@ impl ClothSim {
                         project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
                     }
                 }
-                for plane in &self.planes {
-                    for i in 0..x.len() {
-                        if w[i] > 0.0 {
-                            self.contact_push[i] +=
-                                project_plane(&mut x[i], plane, settings.thickness);
-                        }
-                    }
-                }
+                project_planes(
+                    &self.planes,
+                    x,
+                    w,
+                    settings.thickness,
+                    &mut self.contact_push,
+                );
             }
 
             // 3. Velocities: v = (x - x_prev) / h + h/2 a, computed as v + h a + (x - x_pred) / h
@@ -415,36 +571,125 @@ impl ClothSim {
             }
 
             // 4. Contacts (no bounce, Coulomb friction), then damping.
-            if !self.planes.is_empty() {
+            contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
+            damp(settings, damping_k, x, v, w);
+        }
+    }
+
+    /// One fixed step of [`SolverMethod::MassSpring`]: in each substep of length `h`, with the
+    /// spring forces `f` at the substep's start,
+    /// 1. symplectic Euler: `v += h (a + f / m)`, then `x += h v` (free particles); pins move
+    ///    to their interpolated targets with the velocity of their straight path;
+    /// 2. contacts, found at the end of the substep: a particle behind a plane is put back on
+    ///    it (plus the thickness), its approaching normal velocity removed and its tangential
+    ///    velocity reduced by Coulomb friction (by at most `mu` times the normal velocity
+    ///    removed);
+    /// 3. damping ([`SolverSettings::damping`], on top of the springs' own).
+    pub fn step_mass_spring(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+        self.step_springs(settings, acceleration, dt, false);
+    }
+
+    /// One fixed step of [`SolverMethod::Hybrid`]: in each substep of length `h`, with the
+    /// shear and bend spring forces `f` at the substep's start,
+    /// 1. predict: `x_prev = x`, `v += h (a + f / m)`, `x += h v` (free particles); pins move
+    ///    to their interpolated targets;
+    /// 2. project, `iterations` times: the long-range attachments (if on), the structural
+    ///    edges as XPBD distance constraints with `stretch_compliance`, the planes;
+    /// 3. `v = (x - x_prev) / h`; contacts and damping as in XPBD.
+    pub fn step_hybrid(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+        self.step_springs(settings, acceleration, dt, true);
+    }
+
+    fn step_springs(
+        &mut self,
+        settings: &SolverSettings,
+        acceleration: Vec3,
+        dt: f32,
+        hybrid: bool,
+    ) {
+        if !(dt > 0.0 && dt.is_finite()) {
+            return;
+        }
+        self.spring_scratch();
+        let Some(springs) = self.springs.as_mut() else {
+            return;
+        };
+        let ClothState {
+            positions: x,
+            previous_positions: x_prev,
+            velocities: v,
+            inverse_masses: w,
+        } = &mut self.state;
+        let mut substeps = settings.substeps.max(1);
+        if settings.auto_substeps {
+            let h_max = springs.set.stable_step(&settings.springs, !hybrid, w);
+            substeps = auto_substeps(dt, h_max, substeps);
+        }
+        self.last_substeps = substeps;
+        let iterations = settings.iterations.max(1);
+        let h = dt / substeps as f32;
+        let inv_h = 1.0 / h;
+        let a = Vec3A::from(acceleration);
+        let stretch = Projection::Xpbd {
+            alpha_tilde: settings.stretch_compliance / (h * h),
+        };
+        let damping_k = 1.0 - (-settings.damping * h).exp();
+        let pin_velocity = 1.0 / dt;
+
+        for s in 0..substeps {
+            springs.forces.fill(Vec3A::ZERO);
+            springs
+                .set
+                .add_forces(&settings.springs, !hybrid, x, v, &mut springs.forces);
+            for i in 0..x.len() {
+                x_prev[i] = x[i];
+                if w[i] > 0.0 {
+                    v[i] += (a + springs.forces[i] * w[i]) * h;
+                    x[i] += v[i] * h;
+                }
+            }
+            let t_end = (s + 1) as f32 / substeps as f32;
+            for pin in &self.pins {
+                let p = pin.particle as usize;
+                x[p] = pin.start.lerp(pin.end, t_end);
+                v[p] = (pin.end - pin.start) * pin_velocity;
+            }
+
+            self.contact_push.fill(0.0);
+            if hybrid {
+                springs.lambdas.fill(0.0);
+                for _ in 0..iterations {
+                    if settings.long_range_attachments {
+                        project_long_range(&self.stretch_limits, &self.tethers, x, w);
+                    }
+                    let edges = &springs.set.structural_edges;
+                    project_edges(edges, &mut springs.lambdas, x, w, stretch);
+                    project_planes(
+                        &self.planes,
+                        x,
+                        w,
+                        settings.thickness,
+                        &mut self.contact_push,
+                    );
+                }
+                for i in 0..x.len() {
+                    v[i] = (x[i] - x_prev[i]) * inv_h;
+                }
+                contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
+            } else {
+                // Discrete contacts: the velocity removed is the approaching normal velocity.
                 for plane in &self.planes {
                     for i in 0..x.len() {
-                        let push = self.contact_push[i];
-                        if push > 0.0
-                            && plane.normal.dot(x[i]) <= plane.offset + settings.thickness * 1.001
-                        {
-                            let vn = plane.normal * plane.normal.dot(v[i]).max(0.0);
-                            let vt = v[i] - vn;
-                            let speed = vt.length();
-                            let max_change = settings.friction * push * inv_h;
-                            v[i] = vn
-                                + if speed <= max_change {
-                                    Vec3A::ZERO
-                                } else {
-                                    vt * (1.0 - max_change / speed)
-                                };
+                        if w[i] > 0.0 && project_plane(&mut x[i], plane, settings.thickness) > 0.0 {
+                            let approach = (-plane.normal.dot(v[i])).max(0.0);
+                            self.contact_push[i] = approach * h;
+                            v[i] += plane.normal * approach;
                         }
                     }
                 }
+                contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
             }
-            if damping_k > 0.0 {
-                match settings.damping_mode {
-                    DampingMode::Plain => damp_plain(v, w, damping_k),
-                    DampingMode::Rigid => damp_rigid(x, v, w, damping_k),
-                }
-            }
-        }
-        for pin in &mut self.pins {
-            pin.start = pin.end;
+            damp(settings, damping_k, x, v, w);
         }
     }
 
@@ -476,6 +721,30 @@ impl ClothSim {
     pub fn is_finite(&self) -> bool {
         self.state.positions.iter().all(|p| p.is_finite())
             && self.state.velocities.iter().all(|v| v.is_finite())
+    }
+
+    /// Whether the cloth has diverged: a non-finite position or velocity, a structural strain
+    /// past `bounds.max_strain`, or a particle faster than `bounds.max_speed`.
+    pub fn divergence(&self, bounds: &DivergenceBounds) -> Option<Divergence> {
+        if !self.is_finite() {
+            return Some(Divergence::NonFinite);
+        }
+        let max_speed_sq = self
+            .state
+            .velocities
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0, f32::max);
+        if max_speed_sq > bounds.max_speed * bounds.max_speed {
+            return Some(Divergence::Speed {
+                speed: max_speed_sq.sqrt(),
+            });
+        }
+        let strain = self.strain().max;
+        if strain > bounds.max_strain {
+            return Some(Divergence::Strain { strain });
+        }
+        None
     }
 
     /// The rigid motion that fits the free particles (centre of mass, linear and angular

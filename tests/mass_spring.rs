@@ -1,0 +1,286 @@
+//! Mass-spring and hybrid cloth against analytic results: the oscillator, its damping, the
+//! explicit stability bound, automatic substeps, and hybrid against mass-spring on S1.
+
+use std::f32::consts::{PI, TAU};
+
+use bevy::math::{Vec3, Vec3A};
+use bevy_drape::cloth::{
+    ClothModel, ClothSim, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
+};
+use bevy_drape::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
+
+const MASS: f32 = 0.5;
+const K: f32 = 100.0;
+const REST: f32 = 1.0;
+const STRETCH: f32 = 0.05;
+
+/// One particle of mass `MASS` hanging (without gravity) on a spring of stiffness `K` and
+/// damping `c` from a fixed particle, released stretched by `STRETCH` along the spring.
+fn oscillator() -> ClothSim {
+    let model = ClothModel::from_particles(
+        &[Vec3::ZERO, Vec3::new(0.0, -REST, 0.0)],
+        &[0.0, MASS],
+        &[[0, 1]],
+    )
+    .unwrap();
+    let mut sim = ClothSim::new(model);
+    sim.state_mut().positions[1] = Vec3A::new(0.0, -REST - STRETCH, 0.0);
+    sim
+}
+
+fn spring_settings(method: SolverMethod, c: f32, substeps: u32) -> SolverSettings {
+    let mut s = SolverSettings {
+        method,
+        substeps,
+        iterations: 1,
+        damping: 0.0,
+        long_range_attachments: false,
+        stretch_compliance: 1.0 / K,
+        ..Default::default()
+    };
+    s.springs.structural = SpringConstants {
+        stiffness: K,
+        damping: c,
+    };
+    s
+}
+
+/// Displacement from rest along the spring.
+fn displacement(sim: &ClothSim) -> f32 {
+    -sim.state().positions[1].y - REST
+}
+
+/// Runs `steps` steps of `dt` and returns `(t, displacement)` after each.
+fn trace(sim: &mut ClothSim, settings: &SolverSettings, dt: f32, steps: usize) -> Vec<(f32, f32)> {
+    (1..=steps)
+        .map(|i| {
+            sim.step(settings, Vec3::ZERO, dt);
+            (i as f32 * dt, displacement(sim))
+        })
+        .collect()
+}
+
+#[test]
+fn one_spring_oscillates_with_the_period_two_pi_sqrt_m_over_k() {
+    let settings = spring_settings(SolverMethod::MassSpring, 0.0, 100);
+    let mut sim = oscillator();
+    let samples = trace(&mut sim, &settings, 1.0 / 60.0, 180);
+    // Upward zero crossings, linearly interpolated.
+    let crossings: Vec<f32> = samples
+        .windows(2)
+        .filter(|w| w[0].1 < 0.0 && w[1].1 >= 0.0)
+        .map(|w| w[0].0 + (w[1].0 - w[0].0) * (-w[0].1) / (w[1].1 - w[0].1))
+        .collect();
+    assert!(crossings.len() >= 5, "{crossings:?}");
+    let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f32;
+    let expected = TAU * (MASS / K).sqrt();
+    let error = (measured - expected).abs() / expected;
+    println!("period {measured:.5} s, analytic {expected:.5} s, error {error:.2e}");
+    assert!(error < 0.01);
+}
+
+#[test]
+fn a_damped_spring_decays_like_the_analytic_damped_oscillator() {
+    let c = 0.5;
+    let settings = spring_settings(SolverMethod::MassSpring, c, 100);
+    let mut sim = oscillator();
+    let dt = 1.0 / 600.0;
+    let samples = trace(&mut sim, &settings, dt, 1800);
+    // x'' = -(k/m) x - (c/m) x': extremes at omega_d t = j pi with |x| = A exp(-gamma t / 2).
+    let gamma = c / MASS;
+    let omega_d = (K / MASS - gamma * gamma / 4.0).sqrt();
+    let mut checked = 0;
+    for j in 1..=8 {
+        let t = j as f32 * PI / omega_d;
+        // The sampled extreme nearest the analytic one.
+        let near = samples
+            .iter()
+            .filter(|(ts, _)| (ts - t).abs() < 0.1 * PI / omega_d)
+            .map(|&(_, x)| x.abs())
+            .fold(0.0, f32::max);
+        let expected = STRETCH * (-gamma * t / 2.0).exp();
+        let error = (near - expected).abs() / expected;
+        println!("extreme {j} at {t:.3} s: {near:.5} m, analytic {expected:.5} m ({error:.2e})");
+        assert!(error < 0.05);
+        checked += 1;
+    }
+    assert_eq!(checked, 8);
+    // And it did decay: a sanity check on the setup.
+    assert!(samples.last().unwrap().1.abs() < 0.2 * STRETCH);
+}
+
+#[test]
+fn symplectic_euler_is_stable_below_two_over_omega_and_diverges_above_it() {
+    let omega = (K / MASS).sqrt();
+    let critical = 2.0 / omega;
+    let bounds = DivergenceBounds::default();
+    let steps = |dt: f32| (10.0 / dt).ceil() as usize;
+
+    // The Gershgorin estimate never lets a step above the true bound through.
+    let mut sim = oscillator();
+    let settings = spring_settings(SolverMethod::MassSpring, 0.0, 1);
+    let w = sim.state().inverse_masses.clone();
+    let estimate = sim.springs_mut().stable_step(&settings.springs, true, &w);
+    println!("h_max: analytic {critical:.4} s, Gershgorin estimate {estimate:.4} s");
+    assert!(estimate <= critical && estimate > 0.5 * critical);
+
+    // 0.9 x 2/omega: bounded for 10 s.
+    let dt = 0.9 * critical;
+    let mut sim = oscillator();
+    let mut largest = 0.0f32;
+    for _ in 0..steps(dt) {
+        sim.step(&settings, Vec3::ZERO, dt);
+        largest = largest.max(displacement(&sim).abs());
+        assert_eq!(sim.divergence(&bounds), None);
+    }
+    println!("0.9 x 2/omega: largest displacement {largest:.4} m over 10 s");
+    assert!(largest < 5.0 * STRETCH);
+
+    // 1.1 x 2/omega: diverges, and the check catches it within a second.
+    let dt = 1.1 * critical;
+    let mut sim = oscillator();
+    let caught = (1..=steps(dt)).find_map(|i| {
+        sim.step(&settings, Vec3::ZERO, dt);
+        sim.divergence(&bounds).map(|d| (i, d))
+    });
+    println!("1.1 x 2/omega: {caught:?}");
+    let (step, _) = caught.expect("divergence detected");
+    assert!(step as f32 * dt < 1.0);
+
+    // XPBD with the same stiffness (compliance 1/k) at ten times that step stays bounded.
+    let dt = 11.0 * critical;
+    let settings = spring_settings(SolverMethod::Xpbd, 0.0, 1);
+    let mut sim = oscillator();
+    for _ in 0..steps(dt) {
+        sim.step(&settings, Vec3::ZERO, dt);
+        assert_eq!(sim.divergence(&bounds), None);
+        assert!(displacement(&sim).abs() <= STRETCH * 1.0001);
+    }
+}
+
+fn stiff_cloth_settings(auto_substeps: bool) -> SolverSettings {
+    let mut settings = SolverSettings {
+        method: SolverMethod::MassSpring,
+        auto_substeps,
+        ..Default::default()
+    };
+    settings.springs.structural.stiffness = 1e4;
+    settings.springs.shear.stiffness = 1e4;
+    settings
+}
+
+/// Runs S1 at `n` for `frames` frames; returns the frame it diverged at, if it did.
+fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> (ClothSim, Option<u32>) {
+    let scene = HangingCloth { n };
+    let mut sim = scene.build();
+    for frame in 1..=frames {
+        sim.step(settings, GRAVITY, 1.0 / FRAME_RATE);
+        if sim.divergence(&DivergenceBounds::default()).is_some() {
+            return (sim, Some(frame));
+        }
+    }
+    (sim, None)
+}
+
+#[test]
+fn automatic_substeps_keep_a_stiff_cloth_stable() {
+    // Without them the 1 m cloth with k = 1e4 N/m diverges at the default 8 substeps.
+    let (_, diverged) = run_s1(16, &stiff_cloth_settings(false), 120);
+    assert!(diverged.is_some());
+    let settings = stiff_cloth_settings(true);
+    let mut sim = HangingCloth { n: 16 }.build();
+    let mut diverged = None;
+    let mut lowest = f32::MAX;
+    for frame in 1..=120 {
+        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+        if sim.divergence(&DivergenceBounds::default()).is_some() {
+            diverged = Some(frame);
+        }
+        let x = &sim.state().positions;
+        lowest = lowest.min(x.iter().map(|p| p.y).sum::<f32>() / x.len() as f32);
+    }
+    println!(
+        "auto substeps: {} per frame, max strain {:.3}%",
+        sim.last_substeps(),
+        sim.strain().max * 100.0
+    );
+    assert_eq!(diverged, None);
+    assert!(sim.is_finite());
+    assert!(sim.last_substeps() > 8);
+    assert!(sim.strain().max < 0.01);
+    // The cloth swung down: its centre of mass fell from 1 m to about 0.5 m.
+    assert!(lowest < 0.6, "centre of mass no lower than {lowest}");
+}
+
+#[test]
+fn hybrid_holds_s1_at_least_five_times_tighter_than_mass_spring_at_the_same_budget() {
+    // 200 substeps per frame: above mass-spring's stability bound with the default springs
+    // at N = 32.
+    let base = SolverSettings {
+        substeps: 200,
+        ..Default::default()
+    };
+    let mass_spring = SolverSettings {
+        method: SolverMethod::MassSpring,
+        ..base
+    };
+    let hybrid = SolverSettings {
+        method: SolverMethod::Hybrid,
+        ..base
+    };
+    let (ms, ms_diverged) = run_s1(32, &mass_spring, 60);
+    let (hy, hy_diverged) = run_s1(32, &hybrid, 60);
+    let (ms_strain, hy_strain) = (ms.strain().max, hy.strain().max);
+    println!(
+        "S1 N = 32, 200 substeps, 1 s: max strain mass-spring {:.3}%, hybrid {:.4}%",
+        ms_strain * 100.0,
+        hy_strain * 100.0
+    );
+    assert_eq!((ms_diverged, hy_diverged), (None, None));
+    assert!(ms_strain > 0.0 && hy_strain * 5.0 <= ms_strain);
+}
+
+#[test]
+fn switching_the_method_keeps_positions_and_velocities() {
+    let scene = HangingCloth { n: 12 };
+    let mut sim = scene.build();
+    let dt = 1.0 / FRAME_RATE;
+    let xpbd = SolverSettings::default();
+    for _ in 0..30 {
+        sim.step(&xpbd, GRAVITY, dt);
+    }
+    let before = sim.state().clone();
+    let speed = before
+        .velocities
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max);
+    assert!(speed > 0.1, "the cloth is moving");
+    for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
+        let mut switched = sim.clone();
+        let settings = SolverSettings {
+            method,
+            auto_substeps: true,
+            ..Default::default()
+        };
+        switched.step(&settings, GRAVITY, dt);
+        // Continuing from the same state: every particle ends near x + v dt.
+        let worst = switched
+            .state()
+            .positions
+            .iter()
+            .zip(&before.positions)
+            .zip(&before.velocities)
+            .map(|((x1, x0), v0)| x1.distance(*x0 + *v0 * dt))
+            .fold(0.0, f32::max);
+        println!(
+            "{}: worst departure from x + v dt {worst:.2e} m (largest v dt {:.2e} m)",
+            method.name(),
+            speed * dt
+        );
+        // Losing the velocities would leave a particle v dt behind.
+        assert!(worst < 0.2 * speed * dt);
+    }
+    // The mass of a cloth is the same for every method; the model is shared.
+    assert!((sim.model().total_mass() - DENSITY).abs() < 1e-6);
+}
