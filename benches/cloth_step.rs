@@ -1,22 +1,39 @@
-//! One fixed step (1/60 s) of scene S1 at N = 32 and 64, at the default budget.
+//! One fixed step (1/60 s) of scene S1 at N = 32 and 64: XPBD at the default budget, and
+//! mass-spring and hybrid with automatic substeps (the fewest substeps their explicit springs
+//! are stable with, at the default spring constants).
 
-use bevy_drape::cloth::SolverSettings;
+use bevy_drape::cloth::{SolverMethod, SolverSettings};
 use bevy_drape::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 fn s1_step(c: &mut Criterion) {
-    let settings = SolverSettings::default();
+    let methods = [
+        ("xpbd", SolverMethod::Xpbd),
+        ("mass_spring", SolverMethod::MassSpring),
+        ("hybrid", SolverMethod::Hybrid),
+    ];
+    let mut group = c.benchmark_group("s1_step");
+    group.sample_size(20);
     for n in [32, 64] {
-        let scene = HangingCloth { n };
-        let mut sim = scene.build();
-        // Let it fall first, so the step works on a hanging cloth rather than a flat one.
-        for _ in 0..60 {
-            sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+        for (name, method) in methods {
+            let settings = SolverSettings {
+                method,
+                auto_substeps: method != SolverMethod::Xpbd,
+                ..Default::default()
+            };
+            let scene = HangingCloth { n };
+            let mut sim = scene.build();
+            // Let it fall first, so the step works on a hanging cloth rather than a flat one.
+            for _ in 0..60 {
+                sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+            }
+            assert!(sim.is_finite(), "{name} at N = {n} diverged");
+            group.bench_function(format!("{name}_n{n}"), |b| {
+                b.iter(|| sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE))
+            });
         }
-        c.bench_function(&format!("s1_step_n{n}"), |b| {
-            b.iter(|| sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE))
-        });
     }
+    group.finish();
 }
 
 mod group {
