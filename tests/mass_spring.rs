@@ -284,3 +284,39 @@ fn switching_the_method_keeps_positions_and_velocities() {
     // The mass of a cloth is the same for every method; the model is shared.
     assert!((sim.model().total_mass() - DENSITY).abs() < 1e-6);
 }
+
+#[test]
+fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
+    for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
+        let grid = bevy_drape::cloth::GridDesc::square(0.5, 10, Vec3::new(0.0, 0.3, 0.0));
+        let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
+        sim.set_planes(&[bevy_drape::cloth::Plane::ground(0.0)]);
+        let settings = SolverSettings {
+            method,
+            auto_substeps: true,
+            ..Default::default()
+        };
+        for _ in 0..120 {
+            sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+        }
+        let lowest = sim
+            .state()
+            .positions
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::MAX, f32::min);
+        let fastest = sim
+            .state()
+            .velocities
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0, f32::max);
+        println!(
+            "{}: lowest {lowest:.5} m, fastest {fastest:.2e} m/s",
+            method.name()
+        );
+        // The thickness is 5 mm: nothing below it, and the cloth lies still.
+        assert!(lowest >= settings.thickness - 1e-5 && lowest < 0.01);
+        assert!(fastest < 1e-2);
+    }
+}
