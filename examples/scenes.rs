@@ -1,7 +1,7 @@
 //! Runs a standard scene headless and prints one JSON line.
 //!
 //! ```text
-//! cargo run --release --example scenes -- s1 --n 64 [--substeps 8] [--iterations 1]
+//! cargo run --release --example scenes -- s1|s2 --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
@@ -15,7 +15,7 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy_drape::cloth::{SolverMethod, SolverSettings};
-use bevy_drape::scenes::{HangingCloth, SceneRun, median};
+use bevy_drape::scenes::{Drape, DrapeRun, HangingCloth, SceneRun, median};
 
 fn main() {
     if let Err(message) = run() {
@@ -26,7 +26,7 @@ fn main() {
 
 fn run() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
-    let scene = args.next().ok_or("missing scene name (s1)")?;
+    let scene = args.next().ok_or("missing scene name (s1, s2)")?;
     let mut n = 32u32;
     let mut runs = 3u32;
     let mut frames = 120u32;
@@ -114,7 +114,34 @@ fn run() -> Result<(), String> {
             );
             Ok(())
         }
-        other => Err(format!("unknown scene {other} (s1)")),
+        "s2" => {
+            let scene = Drape { n };
+            let mut all_frames = Vec::new();
+            let mut last: Option<DrapeRun> = None;
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames);
+                all_frames.extend_from_slice(&run.frame_seconds);
+                last = Some(run);
+            }
+            let run = last.expect("at least one run");
+            let x = &run.sim.state().positions;
+            let centre = x[(n / 2 * n + n / 2) as usize];
+            println!(
+                "{{\"scene\":\"s2\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"contacts\":{},\"centre\":[{:.4},{:.4},{:.4}],\"finite\":{}}}",
+                settings.substeps,
+                settings.iterations,
+                median(&all_frames) * 1e3,
+                run.deepest_penetration,
+                run.max_strain,
+                run.sim.contact_count(),
+                centre.x,
+                centre.y,
+                centre.z,
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!("unknown scene {other} (s1, s2)")),
     }
 }
 

@@ -108,3 +108,39 @@ pub enum ClothWarning {
         count: usize,
     },
 }
+
+/// Why a collider is ignored.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ColliderError {
+    /// A radius, length, margin, friction or restitution is out of range.
+    #[error("collider `{name}` = {value} is out of range")]
+    InvalidDimension {
+        /// Which dimension.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// The collider's pose or velocity is NaN or infinite.
+    #[error("the collider's transform or velocity is not finite")]
+    NonFinitePose,
+    /// A triangle-mesh collider has no (non-degenerate) triangles.
+    #[error("the collider mesh has no usable triangles")]
+    EmptyMesh,
+    /// A triangle-mesh collider refers to a vertex that does not exist.
+    #[error("collider mesh index {index} is out of range for {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// The offending index.
+        index: u32,
+        /// The number of vertices.
+        vertex_count: usize,
+    },
+    /// A triangle-mesh collider has a NaN or infinite vertex.
+    #[error("collider mesh vertex {vertex} is not finite")]
+    NonFiniteVertex {
+        /// The offending vertex.
+        vertex: usize,
+    },
+    /// The collider mesh could not be read.
+    #[error("the collider mesh cannot be read: {0}")]
+    Mesh(#[from] ClothError),
+}

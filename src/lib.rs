@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod cloth;
+pub mod collide;
 pub mod error;
 pub mod scenes;
 pub mod schedule;
@@ -11,6 +12,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::FixedPostUpdate;
 
 use cloth::plugin::ClothPlugin;
+use collide::plugin::ColliderPlugin;
 use schedule::DrapeSchedulePlugin;
 
 /// Everything most users import.
@@ -25,7 +27,12 @@ pub mod prelude {
         ClothModel, ClothSim, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
         SolverSettings, SpringConstants, SpringSettings,
     };
-    pub use crate::error::{ClothError, ClothWarning};
+    pub use crate::collide::ContactMaterial;
+    pub use crate::collide::plugin::{
+        AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,
+        ColliderWorld, KinematicVelocity,
+    };
+    pub use crate::error::{ClothError, ClothWarning, ColliderError};
     pub use crate::schedule::DrapeSystems;
 }
 
@@ -34,6 +41,7 @@ pub mod prelude {
 /// | plugin | what it does |
 /// |---|---|
 /// | [`DrapeSchedulePlugin`] | orders the [`schedule::DrapeSystems`] sets |
+/// | [`ColliderPlugin`] | moves kinematic colliders and hands every [`collide::plugin::ClothCollider`] to the cloths |
 /// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
 pub struct DrapePlugins {
     schedule: Interned<dyn ScheduleLabel>,
@@ -58,6 +66,9 @@ impl PluginGroup for DrapePlugins {
     fn build(self) -> PluginGroupBuilder {
         PluginGroupBuilder::start::<Self>()
             .add(DrapeSchedulePlugin {
+                schedule: self.schedule,
+            })
+            .add(ColliderPlugin {
                 schedule: self.schedule,
             })
             .add(ClothPlugin {

@@ -7,6 +7,7 @@ use std::time::Instant;
 use bevy::math::Vec3;
 
 use crate::cloth::{ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SolverSettings};
+use crate::collide::{Collider, ContactMaterial, Pose, Shape};
 
 /// Frame rate of the standard scenes, Hz.
 pub const FRAME_RATE: f32 = 60.0;
@@ -97,6 +98,111 @@ impl HangingCloth {
             sim,
         }
     }
+}
+
+/// Scene S2, the drape: the S1 sheet (`n` x `n` vertices, 1 m square), unpinned, flat, 0.5 m
+/// above a sphere of radius 0.3 m that rests on the ground plane; friction 0.3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drape {
+    /// Vertices per side.
+    pub n: u32,
+}
+
+impl Drape {
+    /// Sphere radius, m.
+    pub const RADIUS: f32 = 0.3;
+    /// Friction of the sphere and the ground.
+    pub const FRICTION: f32 = 0.3;
+    /// Margin of both colliders, m.
+    pub const MARGIN: f32 = 0.005;
+
+    /// The sphere's centre: on the ground under the sheet's centre.
+    pub fn sphere_centre(&self) -> Vec3 {
+        Vec3::new(0.5, Self::RADIUS, 0.5)
+    }
+
+    /// The sphere and the ground.
+    pub fn colliders(&self) -> [Collider; 2] {
+        let material = ContactMaterial {
+            friction: Self::FRICTION,
+            restitution: 0.0,
+        };
+        let at = |translation: Vec3| Pose {
+            translation: translation.into(),
+            ..Pose::IDENTITY
+        };
+        let mut sphere = Collider::fixed(
+            Shape::Sphere {
+                radius: Self::RADIUS,
+            },
+            at(self.sphere_centre()),
+        );
+        let mut ground = Collider::fixed(Shape::Plane, Pose::IDENTITY);
+        for c in [&mut sphere, &mut ground] {
+            c.material = material;
+            c.margin = Self::MARGIN;
+        }
+        [sphere, ground]
+    }
+
+    /// The cloth at rest above the sphere, with the colliders set.
+    pub fn build(&self) -> ClothSim {
+        let height = 2.0 * Self::RADIUS + 0.5;
+        let grid = GridDesc::square(1.0, self.n, Vec3::new(0.0, height, 0.0));
+        let model =
+            ClothModel::grid(&grid, DENSITY).expect("the standard grid is valid by construction");
+        let mut sim = ClothSim::new(model);
+        sim.set_colliders(&self.colliders());
+        sim
+    }
+
+    /// Runs `frames` frames at [`FRAME_RATE`]; the deepest penetration is measured after
+    /// every frame.
+    pub fn run(&self, settings: &SolverSettings, frames: u32) -> DrapeRun {
+        let mut sim = self.build();
+        let colliders = self.colliders();
+        let dt = 1.0 / FRAME_RATE;
+        let mut frame_seconds = Vec::with_capacity(frames as usize);
+        let mut deepest = 0.0f32;
+        let mut finite = true;
+        for _ in 0..frames {
+            let start = Instant::now();
+            sim.step(settings, GRAVITY, dt);
+            frame_seconds.push(start.elapsed().as_secs_f64());
+            finite &= sim.is_finite();
+            for &p in &sim.state().positions {
+                for c in &colliders {
+                    if let Some(d) = c.signed_distance(p, 0.0) {
+                        deepest = deepest.max(-d);
+                    }
+                }
+            }
+        }
+        let strain = sim.strain();
+        DrapeRun {
+            frame_seconds,
+            deepest_penetration: deepest,
+            max_strain: strain.max,
+            finite,
+            sim,
+        }
+    }
+}
+
+/// The outcome of one S2 run.
+#[derive(Clone, Debug)]
+pub struct DrapeRun {
+    /// Wall time of every frame, s.
+    pub frame_seconds: Vec<f64>,
+    /// The deepest any particle was inside the sphere or the ground after any frame, m (0 if
+    /// none was).
+    pub deepest_penetration: f32,
+    /// Largest structural strain at the end.
+    pub max_strain: f32,
+    /// Whether the state stayed finite throughout.
+    pub finite: bool,
+    /// The cloth at the end.
+    pub sim: ClothSim,
 }
 
 /// Positions of the tracked vertices at one time.

@@ -411,3 +411,108 @@ fn switching_the_method_of_a_cloth_entity_keeps_its_motion() {
     );
     assert!(read_diverged(&app, &mut cursor).is_empty());
 }
+
+#[test]
+fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping() {
+    let mut app = app();
+    let empty = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Mesh::new(
+            PrimitiveTopology::TriangleList,
+            bevy::asset::RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new()));
+    let bad = [
+        app.world_mut().spawn(ClothCollider::sphere(0.0)).id(),
+        app.world_mut().spawn(ClothCollider::capsule(-0.1, 0.2)).id(),
+        app.world_mut()
+            .spawn((
+                ClothCollider::sphere(0.2),
+                Transform::from_xyz(f32::NAN, 0.0, 0.0),
+            ))
+            .id(),
+        app.world_mut().spawn(ClothCollider::mesh(empty)).id(),
+        app.world_mut()
+            .spawn(ClothCollider::plane().with_restitution(2.0))
+            .id(),
+    ];
+    let good = app
+        .world_mut()
+        .spawn((ClothCollider::plane(), Transform::from_xyz(0.0, 0.5, 0.0)))
+        .id();
+    let grid = GridDesc::square(1.0, 8, Vec3::ZERO);
+    let mesh = add_grid(&mut app, &grid);
+    let cloth = app
+        .world_mut()
+        .spawn((Mesh3d(mesh), Cloth::default(), Transform::from_xyz(0.0, 1.0, 0.0)))
+        .id();
+    for _ in 0..60 {
+        app.update();
+    }
+    for entity in bad {
+        let state = app.world().get::<ColliderState>(entity).unwrap();
+        assert!(state.error().is_some(), "{entity} refused");
+        assert!(state.collider().is_none());
+    }
+    let world = app.world().resource::<ColliderWorld>();
+    assert_eq!(world.entities, vec![good]);
+    // The cloth fell onto the good plane and stayed finite.
+    let after = positions(&app, cloth);
+    assert!(after.iter().all(|p| p.is_finite()));
+    let lowest = after.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+    assert!((lowest + 1.0 - 0.5).abs() < 0.02, "local {lowest}");
+}
+
+#[test]
+fn a_collider_on_a_child_entity_is_posed_from_its_transform_chain_with_its_velocity() {
+    let mut app = app();
+    // A "bone": the sphere is a child of a parent that moves 1 cm per fixed step along x.
+    let parent = app.world_mut().spawn(Transform::from_xyz(0.0, 0.0, 0.0)).id();
+    let sphere = app
+        .world_mut()
+        .spawn((
+            ClothCollider::sphere(0.1),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+            ChildOf(parent),
+        ))
+        .id();
+    let spinner = app
+        .world_mut()
+        .spawn((
+            ClothCollider::sphere(0.1),
+            KinematicVelocity {
+                linear: Vec3::new(0.0, 0.0, 0.64),
+                angular: Vec3::new(0.0, 2.0, 0.0),
+            },
+        ))
+        .id();
+    for step in 0..10 {
+        app.world_mut()
+            .get_mut::<Transform>(parent)
+            .unwrap()
+            .translation
+            .x = 0.01 * step as f32;
+        app.update();
+    }
+    let collider = |entity| {
+        app.world()
+            .get::<ColliderState>(entity)
+            .unwrap()
+            .collider()
+            .cloned()
+            .unwrap()
+    };
+    let c = collider(sphere);
+    assert!((c.end.translation - Vec3A::new(0.09, 1.0, 0.0)).length() < 1e-5);
+    assert!((c.start.translation - Vec3A::new(0.08, 1.0, 0.0)).length() < 1e-5);
+    // Velocity from the pose change over the 1/64 s step: 0.64 m/s.
+    assert!((c.linear_velocity - Vec3A::new(0.64, 0.0, 0.0)).length() < 1e-3);
+    let k = collider(spinner);
+    assert_eq!(k.linear_velocity, Vec3A::new(0.0, 0.0, 0.64));
+    assert_eq!(k.angular_velocity, Vec3A::new(0.0, 2.0, 0.0));
+    // The kinematic collider moved itself: 9 fixed steps of 1/64 s (the first update has no
+    // fixed step).
+    let z = app.world().get::<Transform>(spinner).unwrap().translation.z;
+    assert!((z - 0.09).abs() < 1e-4, "{z}");
+}

@@ -16,6 +16,7 @@ use super::mesh::{compute_normals, mesh_triangles};
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
+use crate::collide::plugin::ColliderWorld;
 use crate::error::ClothError;
 use crate::schedule::DrapeSystems;
 
@@ -324,6 +325,7 @@ fn step_cloths(
     time: Res<Time>,
     transforms: TransformHelper,
     mut diverged: MessageWriter<ClothDiverged>,
+    colliders: Option<Res<ColliderWorld>>,
 ) {
     let dt = time.delta_secs();
     for (entity, cloth, mut simulation, settings) in &mut cloths {
@@ -359,6 +361,7 @@ fn step_cloths(
         }
         settings.planes(&mut simulation.planes);
         sim.set_planes(&simulation.planes);
+        sim.set_colliders(colliders.as_ref().map_or(&[], |c| &c.colliders));
 
         if let Ok(global) = transforms.compute_global_transform(entity) {
             for &v in &cloth.pinned_vertices {

@@ -13,6 +13,7 @@ use super::ordering::{apply_order, colour_order};
 use super::settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
+use crate::collide::{Collider, Contact, ContactScratch};
 use crate::error::ClothError;
 
 /// Edges and stretch limits are swept as this many interleaved streams, each a contiguous
@@ -198,6 +199,8 @@ pub struct ClothSim {
     contact_push: Vec<f32>,
     springs: Option<SpringScratch>,
     last_substeps: u32,
+    colliders: Vec<Collider>,
+    contacts: ContactScratch,
 }
 
 impl ClothSim {
@@ -250,7 +253,30 @@ impl ClothSim {
             planes: Vec::new(),
             springs: None,
             last_substeps: 0,
+            colliders: Vec::new(),
+            contacts: ContactScratch::default(),
         }
+    }
+
+    /// Replaces the colliders the cloth meets in the next steps (see [`crate::collide`]).
+    pub fn set_colliders(&mut self, colliders: &[Collider]) {
+        self.colliders.clear();
+        self.colliders.extend_from_slice(colliders);
+    }
+
+    /// The colliders.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// Every particle's collider contact in the last substep.
+    pub fn contacts(&self) -> &[Contact] {
+        self.contacts.contacts()
+    }
+
+    /// How many particles touched a collider in the last substep.
+    pub fn contact_count(&self) -> usize {
+        self.contacts.count()
     }
 
     /// The springs of the mass-spring and hybrid methods, once one of them has stepped (or
@@ -502,6 +528,10 @@ impl ClothSim {
             velocities: v,
             inverse_masses: w,
         } = &mut self.state;
+        let colliders = &self.colliders;
+        self.contacts
+            .begin_step(colliders, x.len(), settings.thickness);
+        let bounce_threshold = 2.0 * a.length() * h;
 
         for s in 0..substeps {
             // 1. Predict.
@@ -518,6 +548,9 @@ impl ClothSim {
             }
 
             // 2. Project.
+            if !colliders.is_empty() {
+                self.contacts.begin_substep(colliders, t_end);
+            }
             self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
             self.isometric_lambdas.fill(Vec3A::ZERO);
@@ -553,6 +586,10 @@ impl ClothSim {
                     settings.thickness,
                     &mut self.contact_push,
                 );
+                if !colliders.is_empty() {
+                    self.contacts
+                        .project(colliders, x, v, w, a * h, settings.thickness);
+                }
             }
 
             // 3. Velocities: v = (x - x_prev) / h + h/2 a, computed as v + h a + (x - x_pred) / h
@@ -570,8 +607,13 @@ impl ClothSim {
                 }
             }
 
-            // 4. Contacts (no bounce, Coulomb friction), then damping.
+            // 4. Contacts: planes (no bounce, Coulomb friction), colliders (restitution and
+            //    friction relative to the surface, see `crate::collide::contact`), then damping.
             contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
+            if !colliders.is_empty() {
+                self.contacts
+                    .respond(colliders, x, v, inv_h, 0.5 * h, bounce_threshold);
+            }
             damp(settings, damping_k, x, v, w);
         }
     }
@@ -635,6 +677,10 @@ impl ClothSim {
         };
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
+        let colliders = &self.colliders;
+        self.contacts
+            .begin_step(colliders, x.len(), settings.thickness);
+        let bounce_threshold = 2.0 * a.length() * h;
 
         for s in 0..substeps {
             springs.forces.fill(Vec3A::ZERO);
@@ -656,6 +702,9 @@ impl ClothSim {
             }
 
             self.contact_push.fill(0.0);
+            if !colliders.is_empty() {
+                self.contacts.begin_substep(colliders, t_end);
+            }
             if hybrid {
                 springs.lambdas.fill(0.0);
                 for _ in 0..iterations {
@@ -671,6 +720,10 @@ impl ClothSim {
                         settings.thickness,
                         &mut self.contact_push,
                     );
+                    if !colliders.is_empty() {
+                        self.contacts
+                            .project(colliders, x, v, w, Vec3A::ZERO, settings.thickness);
+                    }
                 }
                 for i in 0..x.len() {
                     v[i] = (x[i] - x_prev[i]) * inv_h;
@@ -688,6 +741,20 @@ impl ClothSim {
                     }
                 }
                 contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
+                if !colliders.is_empty() {
+                    self.contacts
+                        .project(colliders, x, v, w, Vec3A::ZERO, settings.thickness);
+                }
+            }
+            if !colliders.is_empty() {
+                self.contacts.respond(
+                    colliders,
+                    x,
+                    v,
+                    if hybrid { inv_h } else { 0.0 },
+                    h,
+                    bounce_threshold,
+                );
             }
             damp(settings, damping_k, x, v, w);
         }

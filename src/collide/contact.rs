@@ -1,0 +1,204 @@
+//! Particle contacts with [`Collider`]s: the position projection and the velocity response
+//! with restitution and Coulomb friction, relative to the collider's surface velocity.
+//!
+//! In each substep of length `h` (collider poses taken at the end of the substep, so a
+//! collider moves along its motion through the step):
+//!
+//! 1. **Position.** A free particle closer to a collider's surface than `reach = margin +
+//!    thickness` (or inside it) is moved out along the surface normal to `reach`. XPBD repeats
+//!    this inside its iterations (an inequality constraint); mass-spring does it once at the
+//!    end of the substep. The first time a particle touches a collider in the substep, its
+//!    pre-contact normal velocity relative to the surface is recorded:
+//!    `approach = n . (v + h a - v_surface)` with `v` the velocity at the start of the substep
+//!    (XPBD, `h a` the external acceleration's share) or after the explicit update
+//!    (mass-spring, no `h a`); `v_surface = v_lin + omega x r` at the contact.
+//! 2. **Velocity**, after the solver's own velocity update, in the collider's frame
+//!    (`u = v - v_surface`, split into `u_n = n . u` and `u_t`):
+//!    - `u_n' = -epsilon approach` if the particle approached faster than `2 |a| h`, else 0
+//!      (a resting contact does not bounce; the projection adds no velocity of its own, and
+//!      a particle pushed in by the cloth's own constraints comes to rest on the surface, as
+//!      in Mueller et al. 2020: keeping a separating particle's pre-contact velocity instead
+//!      feeds energy into a cloth pressed onto a curved collider);
+//!    - friction: with the normal velocity change the contact made, `dv_n = u_n' - u_free`
+//!      (`u_free` the normal velocity the particle would have had without the contact:
+//!      after the XPBD or hybrid solve the velocity minus the push over `h`, so the cloth's
+//!      tension pressing it onto the surface counts as normal force), the tangential velocity
+//!      loses at most `mu dv_n`: it stops if `|u_t| <= mu dv_n` (static friction), else
+//!      shrinks by `mu dv_n` (kinetic);
+//!    - `v = v_surface + n u_n' + u_t'`;
+//!    - the position follows the friction's velocity change (by `h / 2` times it after the
+//!      XPBD prediction, `h` times after symplectic Euler), so static friction holds positions
+//!      too: without it a particle resting on an incline creeps by `h^2 g sin(theta) / 2` per
+//!      substep.
+
+use bevy::math::Vec3A;
+
+use super::shapes::{Collider, Pose};
+use super::trimesh::Aabb;
+
+/// No collider.
+const NONE: u32 = u32::MAX;
+
+/// One particle's contact in the current substep.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact {
+    /// The collider's index, or `u32::MAX` for none.
+    pub collider: u32,
+    /// The outward surface normal at the contact (world).
+    pub normal: Vec3A,
+    /// How far the particle was pushed out this substep, metres.
+    pub push: f32,
+    /// The pre-contact normal velocity relative to the surface, m/s (negative approaching).
+    pub approach: f32,
+    /// The surface velocity at the contact, m/s.
+    pub surface_velocity: Vec3A,
+}
+
+impl Contact {
+    const EMPTY: Self = Self {
+        collider: NONE,
+        normal: Vec3A::ZERO,
+        push: 0.0,
+        approach: 0.0,
+        surface_velocity: Vec3A::ZERO,
+    };
+
+    /// Whether there is a contact.
+    pub fn is_some(&self) -> bool {
+        self.collider != NONE
+    }
+}
+
+/// Per-particle contacts and per-collider poses and bounds, reused every step.
+#[derive(Clone, Debug, Default)]
+pub struct ContactScratch {
+    contacts: Vec<Contact>,
+    poses: Vec<Pose>,
+    bounds: Vec<Option<Aabb>>,
+}
+
+impl ContactScratch {
+    /// The contacts of the last substep, one per particle.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// Prepares a step: the colliders' swept bounds grown by their reach.
+    pub fn begin_step(&mut self, colliders: &[Collider], particles: usize, thickness: f32) {
+        self.contacts.resize(particles, Contact::EMPTY);
+        self.bounds.clear();
+        self.bounds.extend(
+            colliders
+                .iter()
+                .map(|c| c.swept_bounds(c.margin + thickness)),
+        );
+        self.poses.clear();
+        self.poses.extend(colliders.iter().map(|c| c.end));
+    }
+
+    /// Prepares a substep ending a fraction `t` through the step: poses at `t`, no contacts.
+    pub fn begin_substep(&mut self, colliders: &[Collider], t: f32) {
+        for (pose, c) in self.poses.iter_mut().zip(colliders) {
+            *pose = c.pose_at(t);
+        }
+        self.contacts.fill(Contact::EMPTY);
+    }
+
+    /// Moves every free particle out of every collider (step 1 of the [module docs](self)).
+    /// `v` are the velocities the approach speed is measured from, `h_a` the external
+    /// acceleration's velocity change over the substep still to come (zero if `v` has it).
+    #[allow(clippy::too_many_arguments)]
+    pub fn project(
+        &mut self,
+        colliders: &[Collider],
+        x: &mut [Vec3A],
+        v: &[Vec3A],
+        w: &[f32],
+        h_a: Vec3A,
+        thickness: f32,
+    ) {
+        for (k, collider) in colliders.iter().enumerate() {
+            let pose = self.poses[k];
+            let bounds = self.bounds[k];
+            let reach = collider.margin + thickness;
+            for i in 0..x.len() {
+                if w[i] <= 0.0 || bounds.is_some_and(|b| !b.contains(x[i])) {
+                    continue;
+                }
+                let local = pose.inverse_transform_point(x[i]);
+                let Some((d, n_local)) = collider.shape.signed_distance(local, reach) else {
+                    continue;
+                };
+                if d >= reach {
+                    continue;
+                }
+                let n = pose.rotation * n_local;
+                let depth = reach - d;
+                x[i] += n * depth;
+                let contact = &mut self.contacts[i];
+                if contact.collider != k as u32 {
+                    let surface_velocity = collider.velocity_at(&pose, x[i]);
+                    *contact = Contact {
+                        collider: k as u32,
+                        normal: n,
+                        push: 0.0,
+                        approach: n.dot(v[i] + h_a - surface_velocity),
+                        surface_velocity,
+                    };
+                }
+                contact.normal = n;
+                contact.push += depth;
+            }
+        }
+    }
+
+    /// The velocity response (step 2 of the [module docs](self)); `bounce_threshold` is the
+    /// approach speed below which nothing bounces (`2 |a| h`). `push_velocity` converts the
+    /// distance a particle was pushed into the velocity that push gave it: `1 / h` when the
+    /// solver derives velocities from positions (XPBD, hybrid), 0 when it does not
+    /// (mass-spring). The position follows the friction's velocity change `dv_t` by
+    /// `-position_factor dv_t`: `h / 2` after the XPBD prediction `x += h v + h^2 a / 2` (the
+    /// trapezoidal rule on the velocity), `h` after symplectic Euler.
+    pub fn respond(
+        &self,
+        colliders: &[Collider],
+        x: &mut [Vec3A],
+        v: &mut [Vec3A],
+        push_velocity: f32,
+        position_factor: f32,
+        bounce_threshold: f32,
+    ) {
+        for (i, c) in self.contacts.iter().enumerate() {
+            let Some(collider) = colliders.get(c.collider as usize) else {
+                continue;
+            };
+            let material = collider.material;
+            let n = c.normal;
+            let u = v[i] - c.surface_velocity;
+            let un = n.dot(u);
+            let ut = u - n * un;
+            let un_new = if -c.approach > bounce_threshold {
+                -material.restitution * c.approach
+            } else {
+                0.0
+            };
+            // The normal velocity the particle would have had without the contact: gravity,
+            // the cloth's own constraints pressing it on the surface, its momentum.
+            let un_free = un - c.push * push_velocity;
+            let budget = material.friction * (un_new - un_free).max(0.0);
+            let speed = ut.length();
+            let ut_new = if speed <= budget {
+                Vec3A::ZERO
+            } else {
+                ut * (1.0 - budget / speed)
+            };
+            v[i] = c.surface_velocity + n * un_new + ut_new;
+            x[i] -= (ut - ut_new) * position_factor;
+        }
+    }
+
+    /// How many particles touched a collider in the last substep.
+    pub fn count(&self) -> usize {
+        self.contacts.iter().filter(|c| c.is_some()).count()
+    }
+}

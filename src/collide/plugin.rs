@@ -1,0 +1,329 @@
+//! The Bevy side of the colliders: the [`ClothCollider`] component, kinematic and animated
+//! velocities, and the thin systems that hand every collider's pose and velocity at the
+//! current fixed step to the cloths.
+
+use std::sync::Arc;
+
+use bevy::app::{App, Plugin};
+use bevy::asset::{AssetId, Assets, Handle};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::warn;
+use bevy::math::{Quat, Vec3, Vec3A};
+use bevy::mesh::Mesh;
+use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
+
+use super::shapes::{Collider, ContactMaterial, Pose, Shape};
+use super::trimesh::TriMesh;
+use crate::cloth::mesh::mesh_triangles;
+use crate::error::ColliderError;
+use crate::schedule::DrapeSystems;
+
+/// The geometry of a [`ClothCollider`], in the entity's local frame (scaled by its
+/// transform's scale: spheres by the largest axis, capsules' radius by the largest of X and
+/// Z and their length by Y, meshes exactly).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColliderShape {
+    /// A ball of `radius` about the origin.
+    Sphere {
+        /// Radius, metres.
+        radius: f32,
+    },
+    /// A capsule along local Y: the points within `radius` of the segment from
+    /// `(0, -half_length, 0)` to `(0, half_length, 0)`.
+    Capsule {
+        /// Radius, metres.
+        radius: f32,
+        /// Half the length of the axis segment, metres.
+        half_length: f32,
+    },
+    /// The infinite plane through the origin with normal local +Y; cloth stays above it.
+    Plane,
+    /// A triangle mesh (any triangle-list [`Mesh`] asset, an OBJ loaded as one included),
+    /// one-sided: cloth stays in front of its counter-clockwise faces.
+    TriangleMesh(Handle<Mesh>),
+}
+
+/// Makes any entity (a bone included) a collider for every cloth.
+///
+/// Its pose is taken from its transform chain at each fixed step; its velocity from a
+/// [`KinematicVelocity`], else an [`AnimatedVelocity`], else the change of its pose over the
+/// step.
+#[derive(Component, Clone, Debug, PartialEq)]
+#[require(Transform, ColliderState)]
+pub struct ClothCollider {
+    /// The geometry.
+    pub shape: ColliderShape,
+    /// Friction and restitution. Default: friction 0.5, restitution 0.
+    pub material: ContactMaterial,
+    /// Particles are kept this far outside the surface (plus the cloth's thickness), metres.
+    /// Default: `0.005`.
+    pub margin: f32,
+}
+
+impl ClothCollider {
+    /// The default margin, metres.
+    pub const DEFAULT_MARGIN: f32 = 0.005;
+
+    /// A collider of `shape` with the default material and margin.
+    pub fn new(shape: ColliderShape) -> Self {
+        Self {
+            shape,
+            material: ContactMaterial::default(),
+            margin: Self::DEFAULT_MARGIN,
+        }
+    }
+
+    /// A sphere.
+    pub fn sphere(radius: f32) -> Self {
+        Self::new(ColliderShape::Sphere { radius })
+    }
+
+    /// A capsule along local Y.
+    pub fn capsule(radius: f32, half_length: f32) -> Self {
+        Self::new(ColliderShape::Capsule {
+            radius,
+            half_length,
+        })
+    }
+
+    /// The plane through the origin with normal local +Y.
+    pub fn plane() -> Self {
+        Self::new(ColliderShape::Plane)
+    }
+
+    /// A triangle mesh.
+    pub fn mesh(mesh: Handle<Mesh>) -> Self {
+        Self::new(ColliderShape::TriangleMesh(mesh))
+    }
+
+    /// With this friction coefficient.
+    pub fn with_friction(mut self, friction: f32) -> Self {
+        self.material.friction = friction;
+        self
+    }
+
+    /// With this restitution.
+    pub fn with_restitution(mut self, restitution: f32) -> Self {
+        self.material.restitution = restitution;
+        self
+    }
+
+    /// With this margin, metres.
+    pub fn with_margin(mut self, margin: f32) -> Self {
+        self.margin = margin;
+        self
+    }
+}
+
+/// A constant velocity the collider moves with: every fixed step its [`Transform`] moves by
+/// `linear dt` and turns by `angular dt` (both in its parent's frame), and contacts use it.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct KinematicVelocity {
+    /// Linear velocity, m/s.
+    pub linear: Vec3,
+    /// Angular velocity, rad/s (axis times rate).
+    pub angular: Vec3,
+}
+
+/// The world-frame velocity of the entity's origin at the current fixed step, written by an
+/// animation system (the skeleton's forward kinematics) before the colliders are read.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnimatedVelocity {
+    /// Linear velocity, m/s.
+    pub linear: Vec3,
+    /// Angular velocity, rad/s.
+    pub angular: Vec3,
+}
+
+/// What the solver saw of a collider at the last fixed step (added with [`ClothCollider`]).
+#[derive(Component, Clone, Debug, Default)]
+pub struct ColliderState {
+    previous: Option<Pose>,
+    current: Option<Collider>,
+    mesh: Option<(AssetId<Mesh>, Vec3, Arc<TriMesh>)>,
+    error: Option<ColliderError>,
+}
+
+impl ColliderState {
+    /// The collider as the cloths saw it in the last fixed step; `None` before the first step,
+    /// while its mesh loads, or if it is invalid.
+    pub fn collider(&self) -> Option<&Collider> {
+        self.current.as_ref()
+    }
+
+    /// Why the collider is ignored, if it is.
+    pub fn error(&self) -> Option<&ColliderError> {
+        self.error.as_ref()
+    }
+}
+
+/// Every valid collider at the current fixed step, as the cloths see them.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ColliderWorld {
+    /// The colliders.
+    pub colliders: Vec<Collider>,
+    /// Their entities, in the same order.
+    pub entities: Vec<Entity>,
+}
+
+/// Moves kinematic colliders and gathers every [`ClothCollider`] into the [`ColliderWorld`]
+/// in [`DrapeSystems::Colliders`].
+pub struct ColliderPlugin {
+    /// The schedule the simulation runs in.
+    pub schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl Plugin for ColliderPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<ColliderWorld>().add_systems(
+            self.schedule,
+            (move_kinematic_colliders, gather_colliders)
+                .chain()
+                .in_set(DrapeSystems::Colliders),
+        );
+    }
+}
+
+fn move_kinematic_colliders(
+    mut colliders: Query<(&KinematicVelocity, &mut Transform), With<ClothCollider>>,
+    time: Res<Time>,
+) {
+    let dt = time.delta_secs();
+    for (velocity, mut transform) in &mut colliders {
+        let moved = transform.translation + velocity.linear * dt;
+        let turned =
+            (Quat::from_scaled_axis(velocity.angular * dt) * transform.rotation).normalize();
+        if moved.is_finite() && turned.is_finite() {
+            transform.translation = moved;
+            transform.rotation = turned;
+        }
+    }
+}
+
+/// A collider's shape at `scale`, or `None` while its mesh loads.
+fn scaled_shape(
+    shape: &ColliderShape,
+    scale: Vec3,
+    state: &mut ColliderState,
+    meshes: &Assets<Mesh>,
+) -> Result<Option<Shape>, ColliderError> {
+    let scale = scale.abs();
+    Ok(Some(match shape {
+        ColliderShape::Sphere { radius } => Shape::Sphere {
+            radius: radius * scale.max_element(),
+        },
+        ColliderShape::Capsule {
+            radius,
+            half_length,
+        } => Shape::Capsule {
+            radius: radius * scale.x.max(scale.z),
+            half_length: half_length * scale.y,
+        },
+        ColliderShape::Plane => Shape::Plane,
+        ColliderShape::TriangleMesh(handle) => {
+            let id = handle.id();
+            if let Some((built_id, built_scale, mesh)) = &state.mesh
+                && *built_id == id
+                && *built_scale == scale
+            {
+                return Ok(Some(Shape::TriangleMesh(mesh.clone())));
+            }
+            let Some(mesh) = meshes.get(id) else {
+                return Ok(None);
+            };
+            let (vertices, indices) = mesh_triangles(mesh)?;
+            let scaled: Vec<Vec3> = vertices.iter().map(|&v| v * scale).collect();
+            let built = Arc::new(TriMesh::new(&scaled, &indices)?);
+            state.mesh = Some((id, scale, built.clone()));
+            Shape::TriangleMesh(built)
+        }
+    }))
+}
+
+type Colliders<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static ClothCollider,
+        &'static mut ColliderState,
+        Option<&'static KinematicVelocity>,
+        Option<&'static AnimatedVelocity>,
+    ),
+>;
+
+fn gather_colliders(
+    mut colliders: Colliders,
+    mut world: ResMut<ColliderWorld>,
+    meshes: Res<Assets<Mesh>>,
+    transforms: TransformHelper,
+    time: Res<Time>,
+) {
+    let dt = time.delta_secs();
+    world.colliders.clear();
+    world.entities.clear();
+    for (entity, collider, mut state, kinematic, animated) in &mut colliders {
+        let state = &mut *state;
+        let result = (|| -> Result<Option<Collider>, ColliderError> {
+            let global = transforms
+                .compute_global_transform(entity)
+                .map_err(|_| ColliderError::NonFinitePose)?;
+            let (scale, rotation, translation) = global.to_scale_rotation_translation();
+            if !(scale.is_finite() && rotation.is_finite() && translation.is_finite()) {
+                return Err(ColliderError::NonFinitePose);
+            }
+            let end = Pose {
+                translation: translation.into(),
+                rotation: rotation.normalize(),
+            };
+            let Some(shape) = scaled_shape(&collider.shape, scale, state, &meshes)? else {
+                return Ok(None);
+            };
+            let start = state.previous.unwrap_or(end);
+            let (linear, angular) = if let Some(k) = kinematic {
+                (Vec3A::from(k.linear), Vec3A::from(k.angular))
+            } else if let Some(a) = animated {
+                (Vec3A::from(a.linear), Vec3A::from(a.angular))
+            } else if dt > 0.0 {
+                let turn = end.rotation * start.rotation.inverse();
+                (
+                    (end.translation - start.translation) / dt,
+                    Vec3A::from(turn.to_scaled_axis()) / dt,
+                )
+            } else {
+                (Vec3A::ZERO, Vec3A::ZERO)
+            };
+            let solver_collider = Collider {
+                shape,
+                material: collider.material,
+                margin: collider.margin,
+                start,
+                end,
+                linear_velocity: linear,
+                angular_velocity: angular,
+            };
+            solver_collider.validate()?;
+            Ok(Some(solver_collider))
+        })();
+        match result {
+            Ok(Some(c)) => {
+                state.previous = Some(c.end);
+                state.error = None;
+                world.colliders.push(c.clone());
+                world.entities.push(entity);
+                state.current = Some(c);
+            }
+            Ok(None) => state.current = None,
+            Err(err) => {
+                if state.error.as_ref() != Some(&err) {
+                    warn!("collider {entity} is ignored: {err}");
+                }
+                state.error = Some(err);
+                state.current = None;
+                state.previous = None;
+            }
+        }
+    }
+}

@@ -1,0 +1,304 @@
+//! Collider shapes, poses and the per-step view of a collider the solvers use.
+
+use std::sync::Arc;
+
+use bevy::math::{Quat, Vec3A};
+
+use super::trimesh::{Aabb, TriMesh};
+use crate::error::ColliderError;
+
+/// A rigid pose: rotation, then translation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Position of the local origin, metres.
+    pub translation: Vec3A,
+    /// Orientation (unit quaternion).
+    pub rotation: Quat,
+}
+
+impl Pose {
+    /// The identity pose.
+    pub const IDENTITY: Self = Self {
+        translation: Vec3A::ZERO,
+        rotation: Quat::IDENTITY,
+    };
+
+    /// A local point in the world.
+    #[inline(always)]
+    pub fn transform_point(&self, p: Vec3A) -> Vec3A {
+        self.translation + self.rotation * p
+    }
+
+    /// A world point in the local frame.
+    #[inline(always)]
+    pub fn inverse_transform_point(&self, p: Vec3A) -> Vec3A {
+        self.rotation.inverse() * (p - self.translation)
+    }
+
+    /// The pose a fraction `t` of the way to `to`: translation lerped, rotation slerped.
+    pub fn interpolate(&self, to: &Self, t: f32) -> Self {
+        Self {
+            translation: self.translation.lerp(to.translation, t),
+            rotation: self.rotation.slerp(to.rotation, t),
+        }
+    }
+
+    /// Whether the translation and rotation are finite and the rotation is a unit quaternion.
+    pub fn is_valid(&self) -> bool {
+        self.translation.is_finite() && self.rotation.is_finite() && self.rotation.is_normalized()
+    }
+}
+
+/// The geometry of a collider, in its local frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// A ball of `radius` about the origin.
+    Sphere {
+        /// Radius, metres.
+        radius: f32,
+    },
+    /// The points within `radius` of the segment from `(0, -half_length, 0)` to
+    /// `(0, half_length, 0)`.
+    Capsule {
+        /// Radius, metres.
+        radius: f32,
+        /// Half the length of the axis segment (local Y), metres.
+        half_length: f32,
+    },
+    /// The half-space `y <= 0`; the surface is the local XZ plane, the normal local +Y.
+    Plane,
+    /// A triangle mesh, one-sided: the front of each triangle (counter-clockwise) is outside.
+    TriangleMesh(Arc<TriMesh>),
+}
+
+impl Shape {
+    /// Checks the dimensions.
+    pub fn validate(&self) -> Result<(), ColliderError> {
+        let positive = |name, v: f32| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ColliderError::InvalidDimension { name, value: v })
+            }
+        };
+        match self {
+            Shape::Sphere { radius } => positive("radius", *radius),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => {
+                positive("radius", *radius)?;
+                if half_length.is_finite() && *half_length >= 0.0 {
+                    Ok(())
+                } else {
+                    Err(ColliderError::InvalidDimension {
+                        name: "half_length",
+                        value: *half_length,
+                    })
+                }
+            }
+            Shape::Plane | Shape::TriangleMesh(_) => Ok(()),
+        }
+    }
+
+    /// The signed distance of the local point `p` to the surface (negative inside) and the
+    /// unit outward normal at the closest surface point, if `p` is within `reach` of the
+    /// surface or inside. A triangle mesh counts a point as inside when it is behind the
+    /// closest triangle, up to `reach` deep.
+    #[inline]
+    pub fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<(f32, Vec3A)> {
+        match self {
+            Shape::Sphere { radius } => sphere_distance(p, *radius, reach),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => {
+                let axis_point = Vec3A::new(0.0, p.y.clamp(-half_length, *half_length), 0.0);
+                sphere_distance(p - axis_point, *radius, reach)
+            }
+            Shape::Plane => (p.y < reach).then_some((p.y, Vec3A::Y)),
+            Shape::TriangleMesh(mesh) => {
+                let closest = mesh.closest_point(p, reach)?;
+                let side = (p - closest.point).dot(closest.normal);
+                if side >= 0.0 {
+                    // In front: outside, the normal points from the surface to the point
+                    // (the face normal where the point is on the surface).
+                    let n = if closest.distance > 1e-7 {
+                        (p - closest.point) / closest.distance
+                    } else {
+                        closest.normal
+                    };
+                    Some((closest.distance, n))
+                } else {
+                    Some((-closest.distance, closest.normal))
+                }
+            }
+        }
+    }
+
+    /// The local bounds, `None` for the (infinite) plane.
+    pub fn local_bounds(&self) -> Option<Aabb> {
+        match self {
+            Shape::Sphere { radius } => Some(Aabb {
+                min: Vec3A::splat(-radius),
+                max: Vec3A::splat(*radius),
+            }),
+            Shape::Capsule {
+                radius,
+                half_length,
+            } => Some(Aabb {
+                min: -Vec3A::new(*radius, radius + half_length, *radius),
+                max: Vec3A::new(*radius, radius + half_length, *radius),
+            }),
+            Shape::Plane => None,
+            Shape::TriangleMesh(mesh) => Some(mesh.bounds()),
+        }
+    }
+}
+
+#[inline(always)]
+fn sphere_distance(d: Vec3A, radius: f32, reach: f32) -> Option<(f32, Vec3A)> {
+    let len_sq = d.length_squared();
+    let limit = radius + reach;
+    if len_sq >= limit * limit {
+        return None;
+    }
+    let len = len_sq.sqrt();
+    let n = if len > 1e-9 { d / len } else { Vec3A::Y };
+    Some((len - radius, n))
+}
+
+/// Friction and restitution of a contact.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactMaterial {
+    /// Coulomb friction coefficient `mu`. Default: `0.5`.
+    pub friction: f32,
+    /// Restitution `epsilon` in [0, 1]: the fraction of the approaching normal velocity
+    /// returned. Default: `0.0` (cloth does not bounce).
+    pub restitution: f32,
+}
+
+impl Default for ContactMaterial {
+    fn default() -> Self {
+        Self {
+            friction: 0.5,
+            restitution: 0.0,
+        }
+    }
+}
+
+impl ContactMaterial {
+    /// Checks the ranges.
+    pub fn validate(&self) -> Result<(), ColliderError> {
+        if !(self.friction.is_finite() && self.friction >= 0.0) {
+            return Err(ColliderError::InvalidDimension {
+                name: "friction",
+                value: self.friction,
+            });
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return Err(ColliderError::InvalidDimension {
+                name: "restitution",
+                value: self.restitution,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A collider as the solver sees it over one fixed step: its shape, its material, and its
+/// motion from `start` to `end` with the velocity used for contacts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Collider {
+    /// The geometry.
+    pub shape: Shape,
+    /// Friction and restitution.
+    pub material: ContactMaterial,
+    /// Particles are kept this far outside the surface, on top of the cloth's thickness,
+    /// metres.
+    pub margin: f32,
+    /// The pose at the start of the step.
+    pub start: Pose,
+    /// The pose at the end of the step.
+    pub end: Pose,
+    /// Linear velocity of the local origin, m/s (world frame).
+    pub linear_velocity: Vec3A,
+    /// Angular velocity, rad/s (world frame).
+    pub angular_velocity: Vec3A,
+}
+
+impl Collider {
+    /// A collider at rest at `pose`.
+    pub fn fixed(shape: Shape, pose: Pose) -> Self {
+        Self {
+            shape,
+            material: ContactMaterial::default(),
+            margin: 0.0,
+            start: pose,
+            end: pose,
+            linear_velocity: Vec3A::ZERO,
+            angular_velocity: Vec3A::ZERO,
+        }
+    }
+
+    /// The pose a fraction `t` in [0, 1] through the step.
+    #[inline]
+    pub fn pose_at(&self, t: f32) -> Pose {
+        if t >= 1.0 {
+            self.end
+        } else {
+            self.start.interpolate(&self.end, t)
+        }
+    }
+
+    /// The velocity of the collider's material point at world position `point` when the
+    /// collider is at `pose`: `v + omega x (point - origin)`.
+    #[inline]
+    pub fn velocity_at(&self, pose: &Pose, point: Vec3A) -> Vec3A {
+        self.linear_velocity + self.angular_velocity.cross(point - pose.translation)
+    }
+
+    /// World bounds over the whole step, grown by `reach`; `None` for a plane.
+    pub fn swept_bounds(&self, reach: f32) -> Option<Aabb> {
+        let local = self.shape.local_bounds()?;
+        // The bounding sphere of the local box, at both ends of the step: rotation-proof.
+        let centre = (local.min + local.max) * 0.5;
+        let radius = (local.max - local.min).length() * 0.5 + reach;
+        let mut bounds = Aabb::EMPTY;
+        for pose in [self.start, self.end] {
+            let c = pose.transform_point(centre);
+            bounds = bounds.union(Aabb {
+                min: c - Vec3A::splat(radius),
+                max: c + Vec3A::splat(radius),
+            });
+        }
+        Some(bounds)
+    }
+
+    /// The signed distance of the world point `p` to the surface at the end of the step (see
+    /// [`Shape::signed_distance`]).
+    pub fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<f32> {
+        let local = self.end.inverse_transform_point(p);
+        self.shape.signed_distance(local, reach).map(|(d, _)| d)
+    }
+
+    /// Checks the shape, the material, the margin and the poses.
+    pub fn validate(&self) -> Result<(), ColliderError> {
+        self.shape.validate()?;
+        self.material.validate()?;
+        if !(self.margin.is_finite() && self.margin >= 0.0) {
+            return Err(ColliderError::InvalidDimension {
+                name: "margin",
+                value: self.margin,
+            });
+        }
+        if !(self.start.is_valid()
+            && self.end.is_valid()
+            && self.linear_velocity.is_finite()
+            && self.angular_velocity.is_finite())
+        {
+            return Err(ColliderError::NonFinitePose);
+        }
+        Ok(())
+    }
+}

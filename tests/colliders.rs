@@ -1,0 +1,269 @@
+//! Collider contacts against analytic results: restitution, the friction threshold and the
+//! sliding acceleration on an incline, a spinning sphere's surface velocity, a fast collider,
+//! and scene S2.
+
+use std::sync::Arc;
+
+use bevy::math::{Quat, Vec3, Vec3A};
+use bevy_drape::cloth::{ClothModel, ClothSim, GridDesc, SolverMethod, SolverSettings};
+use bevy_drape::collide::{Collider, ContactMaterial, Pose, Shape, TriMesh};
+use bevy_drape::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
+
+const DT: f32 = 1.0 / FRAME_RATE;
+
+fn particle(at: Vec3) -> ClothSim {
+    ClothSim::new(ClothModel::from_particles(&[at], &[0.01], &[]).unwrap())
+}
+
+fn settings(method: SolverMethod) -> SolverSettings {
+    SolverSettings {
+        method,
+        damping: 0.0,
+        thickness: 0.0,
+        ..Default::default()
+    }
+}
+
+fn plane(rotation: Quat, material: ContactMaterial) -> Collider {
+    let mut c = Collider::fixed(
+        Shape::Plane,
+        Pose {
+            translation: Vec3A::ZERO,
+            rotation,
+        },
+    );
+    c.material = material;
+    c
+}
+
+#[test]
+fn a_particle_bounces_to_epsilon_squared_times_its_drop_height() {
+    let drop = 1.0;
+    for method in [SolverMethod::Xpbd, SolverMethod::MassSpring] {
+        for restitution in [0.5, 0.8] {
+            let mut sim = particle(Vec3::new(0.0, drop, 0.0));
+            sim.set_colliders(&[plane(
+                Quat::IDENTITY,
+                ContactMaterial {
+                    friction: 0.5,
+                    restitution,
+                },
+            )]);
+            let settings = settings(method);
+            // Fall, bounce once, and record the top of the first rebound.
+            let mut bounced = false;
+            let mut top = 0.0f32;
+            for _ in 0..180 {
+                sim.step(&settings, GRAVITY, DT);
+                let (y, vy) = (sim.state().positions[0].y, sim.state().velocities[0].y);
+                if !bounced && vy > 0.0 {
+                    bounced = true;
+                }
+                if bounced {
+                    top = top.max(y);
+                    if vy < 0.0 && y < 0.5 * top {
+                        break;
+                    }
+                }
+            }
+            let expected = restitution * restitution * drop;
+            let error = (top - expected).abs() / expected;
+            println!(
+                "{} epsilon {restitution}: rebound {top:.4} m, epsilon^2 h = {expected:.4} m ({:.2}%)",
+                method.name(),
+                error * 100.0
+            );
+            assert!(error < 0.05);
+        }
+    }
+}
+
+/// Slides a particle and a small cloth patch on a plane inclined by `angle` with friction
+/// `mu` for 1 s; returns the distance each moved down the slope.
+fn slide(angle: f32, mu: f32) -> (f32, f32) {
+    let rotation = Quat::from_rotation_z(angle);
+    let material = ContactMaterial {
+        friction: mu,
+        restitution: 0.0,
+    };
+    let settings = settings(SolverMethod::Xpbd);
+    let down = rotation * Vec3::NEG_X;
+    let start = Vec3::new(0.0, 0.0, 0.0);
+
+    let mut one = particle(start);
+    one.set_colliders(&[plane(rotation, material)]);
+
+    let grid = GridDesc {
+        orientation: rotation,
+        ..GridDesc::square(0.1, 4, start)
+    };
+    let mut patch = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    patch.set_colliders(&[plane(rotation, material)]);
+    let centre = |sim: &ClothSim| {
+        let x = &sim.state().positions;
+        Vec3::from(x.iter().copied().sum::<Vec3A>() / x.len() as f32)
+    };
+    let (c0, p0) = (centre(&patch), centre(&one));
+    for _ in 0..FRAME_RATE as usize {
+        one.step(&settings, GRAVITY, DT);
+        patch.step(&settings, GRAVITY, DT);
+    }
+    (
+        (centre(&one) - p0).dot(down),
+        (centre(&patch) - c0).dot(down),
+    )
+}
+
+#[test]
+fn on_an_incline_a_particle_and_a_patch_stay_below_the_friction_angle_and_slide_above_it() {
+    let mu = 0.5;
+    let g = GRAVITY.length();
+    for tan in [0.3f32, 0.45] {
+        let (particle, patch) = slide(tan.atan(), mu);
+        println!("tan {tan}: moved {particle:.2e} m (particle), {patch:.2e} m (patch)");
+        assert!(particle.abs() < 1e-4 && patch.abs() < 1e-4);
+    }
+    for tan in [0.6f32, 0.8, 1.2] {
+        let angle = tan.atan();
+        let (particle, patch) = slide(angle, mu);
+        let expected = g * (angle.sin() - mu * angle.cos());
+        for (what, s) in [("particle", particle), ("patch", patch)] {
+            // s = a t^2 / 2 at t = 1 s.
+            let a = 2.0 * s;
+            let error = (a - expected).abs() / expected;
+            println!(
+                "tan {tan}: {what} slides at {a:.4} m/s^2, g (sin - mu cos) = {expected:.4} ({:.2}%)",
+                error * 100.0
+            );
+            assert!(error < 0.05);
+        }
+    }
+}
+
+#[test]
+fn a_spinning_sphere_carries_a_particle_resting_on_top_along_omega_cross_r() {
+    let radius = 0.5;
+    let omega = Vec3A::new(0.0, 0.0, -2.0);
+    let mut sphere = Collider::fixed(Shape::Sphere { radius }, Pose::IDENTITY);
+    sphere.angular_velocity = omega;
+    sphere.material.friction = 0.8;
+    let top = Vec3A::new(0.0, radius, 0.0);
+    let expected = omega.cross(top).normalize();
+    let mut sim = particle(top.into());
+    sim.set_colliders(&[sphere]);
+    let settings = settings(SolverMethod::Xpbd);
+    for _ in 0..6 {
+        sim.step(&settings, GRAVITY, DT);
+    }
+    let p = sim.state().positions[0];
+    let v = sim.state().velocities[0];
+    println!("after 0.1 s: at {p}, velocity {v}, omega x r direction {expected}");
+    assert!(p.dot(expected) > 0.02, "carried along omega x r");
+    assert!(v.normalize().dot(expected) > 0.99);
+    // Until it reaches the surface speed |omega| r = 1 m/s, kinetic friction accelerates it at
+    // mu g.
+    let analytic = 0.8 * GRAVITY.length() * 0.1;
+    let error = (v.length() - analytic).abs() / analytic;
+    println!(
+        "speed {:.4} m/s, mu g t = {analytic:.4} m/s ({:.2}%)",
+        v.length(),
+        error * 100.0
+    );
+    assert!(error < 0.05);
+}
+
+#[test]
+fn a_fast_collider_leaves_no_particle_inside_it() {
+    let radius = 0.3;
+    let per_step = 0.5;
+    let grid = GridDesc::square(1.0, 24, Vec3::new(0.0, 0.3, 0.0));
+    let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    sim.set_pins(&[grid.index(0, 0), grid.index(23, 0)])
+        .unwrap();
+    let settings = SolverSettings::default();
+    let mut deepest = 0.0f32;
+    let mut contacts = 0;
+    for step in 0..8 {
+        // Sweeps through the sheet along x, 0.5 m per fixed step (30 m/s).
+        let start = Vec3A::new(-0.6 + per_step * step as f32, 0.3, 0.5);
+        let end = start + Vec3A::X * per_step;
+        let mut sphere = Collider::fixed(
+            Shape::Sphere { radius },
+            Pose {
+                translation: start,
+                rotation: Quat::IDENTITY,
+            },
+        );
+        sphere.end.translation = end;
+        sphere.linear_velocity = Vec3A::X * per_step / DT;
+        sim.set_colliders(std::slice::from_ref(&sphere));
+        sim.step(&settings, Vec3::ZERO, DT);
+        contacts += sim.contact_count();
+        for &p in &sim.state().positions {
+            if let Some(d) = sphere.signed_distance(p, 0.0) {
+                deepest = deepest.max(-d);
+            }
+        }
+        assert!(sim.is_finite());
+    }
+    println!("deepest inside the moving sphere: {deepest:.2e} m, {contacts} contacts");
+    assert!(contacts > 0);
+    assert!(deepest <= 1e-5);
+}
+
+#[test]
+fn in_s2_no_particle_goes_deeper_than_the_margin() {
+    let run = Drape { n: 64 }.run(&SolverSettings::default(), 180);
+    let sim = &run.sim;
+    let centre = Drape { n: 64 }.sphere_centre();
+    let lowest = sim
+        .state()
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MAX, f32::min);
+    println!(
+        "S2 N = 64: deepest {:.2e} m, max strain {:.2}%, lowest particle {lowest:.3} m",
+        run.deepest_penetration,
+        run.max_strain * 100.0
+    );
+    assert!(run.finite);
+    assert!(run.deepest_penetration <= Drape::MARGIN);
+    // The cloth draped and stayed: it rests on the sphere and hangs below its equator.
+    let top = sim
+        .state()
+        .positions
+        .iter()
+        .map(|p| Vec3::from(*p).distance(centre))
+        .fold(f32::MAX, f32::min);
+    println!("closest particle to the sphere's centre: {top:.4} m");
+    assert!(top < Drape::RADIUS + 0.02, "{top}");
+    assert!(lowest < Drape::RADIUS);
+    let centre_particle = sim.state().positions[32 * 64 + 32];
+    assert!(
+        (centre_particle.y - 2.0 * Drape::RADIUS).abs() < 0.02,
+        "{centre_particle}"
+    );
+}
+
+#[test]
+fn a_triangle_mesh_collider_holds_a_particle_like_the_plane_it_tiles() {
+    // A flat square of two triangles facing up, 1 m across.
+    let v = [
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+    ];
+    let mesh = Arc::new(TriMesh::new(&v, &[0, 1, 2, 0, 2, 3]).unwrap());
+    let mut sim = particle(Vec3::new(0.1, 0.5, 0.2));
+    let mut floor = Collider::fixed(Shape::TriangleMesh(mesh), Pose::IDENTITY);
+    floor.margin = 0.01;
+    sim.set_colliders(&[floor]);
+    for _ in 0..120 {
+        sim.step(&settings(SolverMethod::Xpbd), GRAVITY, DT);
+    }
+    let p = sim.state().positions[0];
+    println!("resting on the mesh at {p}");
+    assert!((p.y - 0.01).abs() < 1e-4);
+}
