@@ -415,17 +415,18 @@ fn switching_the_method_of_a_cloth_entity_keeps_its_motion() {
 #[test]
 fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping() {
     let mut app = app();
-    let empty = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(Mesh::new(
+    let empty = app.world_mut().resource_mut::<Assets<Mesh>>().add(
+        Mesh::new(
             PrimitiveTopology::TriangleList,
             bevy::asset::RenderAssetUsages::default(),
         )
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new()));
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new()),
+    );
     let bad = [
         app.world_mut().spawn(ClothCollider::sphere(0.0)).id(),
-        app.world_mut().spawn(ClothCollider::capsule(-0.1, 0.2)).id(),
+        app.world_mut()
+            .spawn(ClothCollider::capsule(-0.1, 0.2))
+            .id(),
         app.world_mut()
             .spawn((
                 ClothCollider::sphere(0.2),
@@ -445,7 +446,11 @@ fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping()
     let mesh = add_grid(&mut app, &grid);
     let cloth = app
         .world_mut()
-        .spawn((Mesh3d(mesh), Cloth::default(), Transform::from_xyz(0.0, 1.0, 0.0)))
+        .spawn((
+            Mesh3d(mesh),
+            Cloth::default(),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ))
         .id();
     for _ in 0..60 {
         app.update();
@@ -468,7 +473,10 @@ fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping()
 fn a_collider_on_a_child_entity_is_posed_from_its_transform_chain_with_its_velocity() {
     let mut app = app();
     // A "bone": the sphere is a child of a parent that moves 1 cm per fixed step along x.
-    let parent = app.world_mut().spawn(Transform::from_xyz(0.0, 0.0, 0.0)).id();
+    let parent = app
+        .world_mut()
+        .spawn(Transform::from_xyz(0.0, 0.0, 0.0))
+        .id();
     let sphere = app
         .world_mut()
         .spawn((

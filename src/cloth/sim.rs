@@ -612,7 +612,7 @@ impl ClothSim {
             contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
             if !colliders.is_empty() {
                 self.contacts
-                    .respond(colliders, x, v, inv_h, 0.5 * h, bounce_threshold);
+                    .respond(colliders, x, x_prev, v, inv_h, h, bounce_threshold);
             }
             damp(settings, damping_k, x, v, w);
         }
@@ -750,6 +750,7 @@ impl ClothSim {
                 self.contacts.respond(
                     colliders,
                     x,
+                    x_prev,
                     v,
                     if hybrid { inv_h } else { 0.0 },
                     h,
