@@ -1,6 +1,10 @@
 #![doc = include_str!("../README.md")]
 
 pub mod cloth;
+/// OBJ files as [`bevy::mesh::Mesh`] assets: add [`bevy_obj::ObjPlugin`] to an App to load
+/// `.obj` files with the asset server (cloth and collider meshes alike), or call
+/// [`bevy_obj::mesh::load_obj_as_mesh`] on the bytes of one.
+pub use bevy_obj;
 pub mod collide;
 pub mod error;
 pub mod scenes;

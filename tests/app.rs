@@ -524,3 +524,45 @@ fn a_collider_on_a_child_entity_is_posed_from_its_transform_chain_with_its_veloc
     let z = app.world().get::<Transform>(spinner).unwrap().translation.z;
     assert!((z - 0.09).abs() < 1e-4, "{z}");
 }
+
+#[test]
+fn cloth_drapes_over_a_box_collider_read_from_an_obj_file() {
+    let mut app = app();
+    let obj = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/meshes/box.obj"
+    ))
+    .unwrap();
+    let box_mesh = bevy_drape::bevy_obj::mesh::load_obj_as_mesh(&obj, &Default::default()).unwrap();
+    let box_mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(box_mesh);
+    app.world_mut().spawn(ClothCollider::mesh(box_mesh));
+    app.world_mut().spawn(ClothCollider::plane());
+    let grid = GridDesc::square(1.0, 16, Vec3::new(-0.5, 0.0, -0.5));
+    let mesh = add_grid(&mut app, &grid);
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(mesh),
+            Cloth::default(),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ))
+        .id();
+    for _ in 0..129 {
+        app.update();
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let x = &sim.state().positions;
+    assert!(sim.is_finite());
+    // The middle of the sheet rests on the box's top, margin + thickness above it.
+    let middle = x[grid.index(8, 8) as usize];
+    assert!((middle.y - 0.61).abs() < 0.005, "{middle}");
+    // Nothing inside the box.
+    let inside = x
+        .iter()
+        .filter(|p| p.x.abs() < 0.29 && p.z.abs() < 0.29 && p.y > 0.01 && p.y < 0.59)
+        .count();
+    assert_eq!(inside, 0);
+    // The rim hangs down over the box's sides.
+    let lowest = x.iter().map(|p| p.y).fold(f32::MAX, f32::min);
+    assert!(lowest < 0.5, "{lowest}");
+}
