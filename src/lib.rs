@@ -9,6 +9,7 @@ pub mod collide;
 pub mod error;
 pub mod scenes;
 pub mod schedule;
+pub mod skeleton;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;

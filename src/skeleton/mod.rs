@@ -1,0 +1,3 @@
+//! Keyframed hinge skeletons: keyframe splines at non-uniform times ([`spline`]).
+
+pub mod spline;
