@@ -1,3 +1,5 @@
-//! Keyframed hinge skeletons: keyframe splines at non-uniform times ([`spline`]).
+//! Keyframed hinge skeletons: the rig and its forward kinematics ([`rig`]) and keyframe
+//! splines at non-uniform times ([`spline`]).
 
+pub mod rig;
 pub mod spline;
