@@ -19,6 +19,7 @@ use bevy::prelude::FixedPostUpdate;
 use cloth::plugin::ClothPlugin;
 use collide::plugin::ColliderPlugin;
 use schedule::DrapeSchedulePlugin;
+use skeleton::plugin::SkeletonPlugin;
 
 /// Everything most users import.
 pub mod prelude {
@@ -39,6 +40,12 @@ pub mod prelude {
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError};
     pub use crate::schedule::DrapeSystems;
+    pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
+    pub use crate::skeleton::humanoid::humanoid;
+    pub use crate::skeleton::plugin::{
+        BoneEntity, ClipAsset, ClipPlayer, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
+    };
+    pub use crate::skeleton::rig::{BoneDesc, Rig, RigError};
 }
 
 /// All of `bevy_drape`'s plugins, simulating in [`FixedPostUpdate`] by default.
@@ -46,6 +53,7 @@ pub mod prelude {
 /// | plugin | what it does |
 /// |---|---|
 /// | [`DrapeSchedulePlugin`] | orders the [`schedule::DrapeSystems`] sets |
+/// | [`SkeletonPlugin`] | loads clips, spawns bone entities, plays clips on [`skeleton::plugin::Skeleton`]s |
 /// | [`ColliderPlugin`] | moves kinematic colliders and hands every [`collide::plugin::ClothCollider`] to the cloths |
 /// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
 pub struct DrapePlugins {
@@ -71,6 +79,9 @@ impl PluginGroup for DrapePlugins {
     fn build(self) -> PluginGroupBuilder {
         PluginGroupBuilder::start::<Self>()
             .add(DrapeSchedulePlugin {
+                schedule: self.schedule,
+            })
+            .add(SkeletonPlugin {
                 schedule: self.schedule,
             })
             .add(ColliderPlugin {

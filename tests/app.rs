@@ -4,6 +4,7 @@ use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
 use bevy::ecs::message::MessageCursor;
+use bevy::ecs::system::RunSystemOnce;
 use bevy::mesh::{Indices, Mesh, MeshPlugin, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
@@ -565,4 +566,93 @@ fn cloth_drapes_over_a_box_collider_read_from_an_obj_file() {
     // The rim hangs down over the box's sides.
     let lowest = x.iter().map(|p| p.y).fold(f32::MAX, f32::min);
     assert!(lowest < 0.5, "{lowest}");
+}
+
+#[test]
+fn a_skeleton_plays_a_clip_file_poses_its_bones_and_publishes_their_velocities() {
+    let mut app = app();
+    let clip: Handle<ClipAsset> = app
+        .world()
+        .resource::<AssetServer>()
+        .load("clips/walk.clip.ron");
+    let rig = std::sync::Arc::new(humanoid());
+    let character = app
+        .world_mut()
+        .spawn((Skeleton { rig: rig.clone() }, ClipPlayer::new(clip.clone())))
+        .id();
+    // Wait for the file.
+    for _ in 0..200 {
+        app.update();
+        if app
+            .world()
+            .resource::<Assets<ClipAsset>>()
+            .get(&clip)
+            .is_some()
+        {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(
+        app.world()
+            .resource::<Assets<ClipAsset>>()
+            .get(&clip)
+            .is_some()
+    );
+    let bones = app.world().get::<SkeletonBones>(character).unwrap().clone();
+    assert_eq!(bones.entities().len(), 19);
+    // A capsule on the left shin, halfway down it.
+    let shin = bones.get("shin_l").unwrap();
+    let proxy = app
+        .world_mut()
+        .spawn((
+            ClothCollider::capsule(0.05, 0.15),
+            Transform::from_xyz(0.0, -0.21, 0.0),
+            ChildOf(shin),
+        ))
+        .id();
+    for _ in 0..20 {
+        app.update();
+    }
+    let pose = app.world().get::<SkeletonPose>(character).unwrap().clone();
+    // The bone entities carry the forward kinematics of the sampled pose: composing their
+    // local transforms of this fixed step from the pelvis down gives the FK positions. (Their
+    // `Transform`s show the step before, interpolated for rendering.)
+    for name in ["foot_l", "hand_r", "head"] {
+        let index = rig.find(name).unwrap();
+        let mut chain = vec![index];
+        while let Some(p) = rig.bones()[*chain.last().unwrap()].parent {
+            chain.push(p);
+        }
+        let mut world = Transform::IDENTITY;
+        for &b in chain.iter().rev() {
+            let bone = app
+                .world()
+                .get::<BoneEntity>(bones.entity(b).unwrap())
+                .unwrap();
+            world = world * bone.current();
+        }
+        let fk = pose.bones[index].translation;
+        assert!(
+            world.translation.distance(fk) < 1e-5,
+            "{name}: {} vs {fk}",
+            world.translation
+        );
+    }
+    // The swinging shin has a velocity, and the proxy hanging from it moves with it.
+    let shin_state = pose.bones[rig.find("shin_l").unwrap()];
+    assert!(shin_state.angular_velocity.length() > 0.1);
+    let collider = app
+        .world()
+        .get::<ColliderState>(proxy)
+        .unwrap()
+        .collider()
+        .cloned()
+        .unwrap();
+    let expected = shin_state.point_velocity(Vec3::from(collider.end.translation));
+    assert!(
+        (Vec3::from(collider.linear_velocity) - expected).length() < 0.05 * expected.length(),
+        "{} vs {expected}",
+        collider.linear_velocity
+    );
 }

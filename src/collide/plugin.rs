@@ -48,8 +48,8 @@ pub enum ColliderShape {
 /// Makes any entity (a bone included) a collider for every cloth.
 ///
 /// Its pose is taken from its transform chain at each fixed step; its velocity from a
-/// [`KinematicVelocity`], else an [`AnimatedVelocity`], else the change of its pose over the
-/// step.
+/// [`KinematicVelocity`], else an [`AnimatedVelocity`] on it or on its parent (a bone), else
+/// the change of its pose over the step.
 #[derive(Component, Clone, Debug, PartialEq)]
 #[require(Transform, ColliderState)]
 pub struct ClothCollider {
@@ -251,11 +251,13 @@ type Colliders<'w, 's> = Query<
         &'static mut ColliderState,
         Option<&'static KinematicVelocity>,
         Option<&'static AnimatedVelocity>,
+        Option<&'static ChildOf>,
     ),
 >;
 
 fn gather_colliders(
     mut colliders: Colliders,
+    animated_parents: Query<&AnimatedVelocity, Without<ClothCollider>>,
     mut world: ResMut<ColliderWorld>,
     meshes: Res<Assets<Mesh>>,
     transforms: TransformHelper,
@@ -264,7 +266,7 @@ fn gather_colliders(
     let dt = time.delta_secs();
     world.colliders.clear();
     world.entities.clear();
-    for (entity, collider, mut state, kinematic, animated) in &mut colliders {
+    for (entity, collider, mut state, kinematic, animated, child_of) in &mut colliders {
         let state = &mut *state;
         let result = (|| -> Result<Option<Collider>, ColliderError> {
             let global = transforms
@@ -286,6 +288,17 @@ fn gather_colliders(
                 (Vec3A::from(k.linear), Vec3A::from(k.angular))
             } else if let Some(a) = animated {
                 (Vec3A::from(a.linear), Vec3A::from(a.angular))
+            } else if let Some((parent, a)) =
+                child_of.and_then(|c| Some((c.parent(), animated_parents.get(c.parent()).ok()?)))
+            {
+                // A proxy hanging from an animated bone moves with the bone:
+                // v = v_bone + omega x (origin - bone origin).
+                let bone = transforms
+                    .compute_global_transform(parent)
+                    .map_err(|_| ColliderError::NonFinitePose)?;
+                let r = end.translation - Vec3A::from(bone.translation());
+                let omega = Vec3A::from(a.angular);
+                (Vec3A::from(a.linear) + omega.cross(r), omega)
             } else if dt > 0.0 {
                 let turn = end.rotation * start.rotation.inverse();
                 (

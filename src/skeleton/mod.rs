@@ -1,6 +1,9 @@
-//! Keyframed hinge skeletons: the rig and its forward kinematics ([`rig`]) and keyframe
-//! splines at non-uniform times ([`spline`]).
+//! Keyframed hinge skeletons: the rig and its forward kinematics ([`rig`]), keyframe splines
+//! at non-uniform times ([`spline`]), clips ([`clip`]), the humanoid of the examples
+//! ([`humanoid`]) and the Bevy components ([`plugin`]).
 
 pub mod clip;
+pub mod humanoid;
+pub mod plugin;
 pub mod rig;
 pub mod spline;

@@ -200,7 +200,8 @@ impl Rig {
             let d = &descs[old];
             let is_root = parents[old].is_none();
             let (offset, axis) = (Vec3::from_array(d.offset), Vec3::from_array(d.axis));
-            if !offset.is_finite() || (!is_root && !(axis.is_finite() && axis.length() > 1e-6)) {
+            let axis_ok = is_root || (axis.is_finite() && axis.length() > 1e-6);
+            if !offset.is_finite() || !axis_ok {
                 return Err(RigError::BadGeometry(d.name.clone()));
             }
             if let Some((lo, hi)) = d.limits

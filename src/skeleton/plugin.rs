@@ -1,0 +1,315 @@
+//! The Bevy side of skeletons: clip assets (`*.clip.ron`), the [`Skeleton`] and
+//! [`ClipPlayer`] components, bone entities, and the thin systems that sample clips in the
+//! fixed schedule, write bone transforms and publish bone velocities for colliders.
+
+use std::sync::Arc;
+
+use bevy::app::{App, Plugin, PostUpdate, PreUpdate};
+use bevy::asset::io::Reader;
+use bevy::asset::{Asset, AssetApp, AssetId, AssetLoader, Assets, Handle, LoadContext};
+use bevy::ecs::intern::Interned;
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::log::error;
+use bevy::math::{Quat, Vec3};
+use bevy::prelude::*;
+use bevy::reflect::TypePath;
+use bevy::transform::TransformSystems;
+
+use super::clip::{Clip, ClipDesc, ClipError};
+use super::rig::{BoneState, Pose, PoseRate, Rig};
+use crate::collide::plugin::AnimatedVelocity;
+use crate::schedule::DrapeSystems;
+
+/// A clip file, as loaded; bound to a rig when a [`ClipPlayer`] plays it.
+#[derive(Asset, TypePath, Clone, Debug, PartialEq)]
+pub struct ClipAsset(pub ClipDesc);
+
+/// Loads `*.clip.ron` files as [`ClipAsset`]s.
+#[derive(Default, TypePath)]
+pub struct ClipLoader;
+
+impl AssetLoader for ClipLoader {
+    type Asset = ClipAsset;
+    type Settings = ();
+    type Error = ClipLoadError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        _settings: &(),
+        _context: &mut LoadContext<'_>,
+    ) -> Result<ClipAsset, ClipLoadError> {
+        let mut bytes = Vec::new();
+        reader.read_to_end(&mut bytes).await?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| ClipError::Parse(e.to_string()))?;
+        Ok(ClipAsset(ClipDesc::from_ron(text)?))
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["clip.ron"]
+    }
+}
+
+/// Why a clip file failed to load.
+#[derive(Debug, thiserror::Error)]
+pub enum ClipLoadError {
+    /// The file could not be read.
+    #[error("cannot read the clip file: {0}")]
+    Io(#[from] std::io::Error),
+    /// The file is not a clip.
+    #[error(transparent)]
+    Clip(#[from] ClipError),
+}
+
+/// A character: its rig. `bevy_drape` spawns one child entity per bone (see
+/// [`SkeletonBones`]) in the hierarchy of the rig, so meshes and colliders can hang from them.
+#[derive(Component, Clone, Debug)]
+#[require(Transform)]
+pub struct Skeleton {
+    /// The rig.
+    pub rig: Arc<Rig>,
+}
+
+/// Plays a clip on the [`Skeleton`] of the same entity.
+#[derive(Component, Clone, Debug)]
+pub struct ClipPlayer {
+    /// The clip.
+    pub clip: Handle<ClipAsset>,
+    /// Time into the clip, seconds.
+    pub time: f32,
+    /// Playback speed (1 = real time).
+    pub speed: f32,
+}
+
+impl ClipPlayer {
+    /// Plays `clip` from its start at normal speed.
+    pub fn new(clip: Handle<ClipAsset>) -> Self {
+        Self {
+            clip,
+            time: 0.0,
+            speed: 1.0,
+        }
+    }
+}
+
+/// The bone entities of a [`Skeleton`], by bone index; added by `bevy_drape`.
+#[derive(Component, Clone, Debug)]
+pub struct SkeletonBones {
+    entities: Vec<Entity>,
+    rig: Arc<Rig>,
+}
+
+impl SkeletonBones {
+    /// The entity of bone `index`.
+    pub fn entity(&self, index: usize) -> Option<Entity> {
+        self.entities.get(index).copied()
+    }
+
+    /// The entity of the bone named `name`.
+    pub fn get(&self, name: &str) -> Option<Entity> {
+        self.rig.find(name).and_then(|i| self.entity(i))
+    }
+
+    /// Every bone entity, by bone index.
+    pub fn entities(&self) -> &[Entity] {
+        &self.entities
+    }
+}
+
+/// A bone entity: its index in the rig and its local transforms at the last two fixed steps,
+/// for rendering in between.
+#[derive(Component, Clone, Debug)]
+pub struct BoneEntity {
+    /// The bone's index in the rig.
+    pub index: usize,
+    previous: Transform,
+    current: Transform,
+}
+
+impl BoneEntity {
+    /// The local transform at the last fixed step (its `Transform` is this one during the
+    /// fixed step, and between this and the one before while rendering).
+    pub fn current(&self) -> Transform {
+        self.current
+    }
+}
+
+/// The pose a skeleton was given at the last fixed step, with its rate and the bones' states
+/// in the character's frame.
+#[derive(Component, Clone, Debug)]
+pub struct SkeletonPose {
+    /// The pose.
+    pub pose: Pose,
+    /// Its time derivative.
+    pub rate: PoseRate,
+    /// Every bone's transform and velocity in the character's frame.
+    pub bones: Vec<BoneState>,
+    bound: Option<(AssetId<ClipAsset>, Result<Clip, ClipError>)>,
+}
+
+/// Spawns bone entities (in `PreUpdate`), samples clips in [`DrapeSystems::Animate`], and
+/// interpolates bone transforms for rendering.
+pub struct SkeletonPlugin {
+    /// The schedule the simulation runs in.
+    pub schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl Plugin for SkeletonPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_asset::<ClipAsset>()
+            .init_asset_loader::<ClipLoader>()
+            .add_systems(PreUpdate, spawn_bones)
+            .add_systems(self.schedule, play_clips.in_set(DrapeSystems::Animate))
+            .add_systems(
+                PostUpdate,
+                interpolate_bones.before(TransformSystems::Propagate),
+            );
+    }
+}
+
+fn local_transform(rig: &Rig, bone: usize, pose: &Pose) -> Transform {
+    let b = &rig.bones()[bone];
+    match b.parent {
+        None => {
+            Transform::from_translation(pose.root_translation).with_rotation(pose.root_rotation)
+        }
+        Some(_) => {
+            let angle = pose.angles.get(bone).copied().unwrap_or(0.0);
+            let angle = b.limits.map_or(angle, |(lo, hi)| angle.clamp(lo, hi));
+            Transform::from_translation(b.offset).with_rotation(rig.local_rotation(bone, angle))
+        }
+    }
+}
+
+/// Spawns the bone entities of every new skeleton, in its rest pose.
+fn spawn_bones(
+    mut commands: Commands,
+    skeletons: Query<(Entity, &Skeleton), Without<SkeletonBones>>,
+) {
+    for (entity, skeleton) in &skeletons {
+        let rig = &skeleton.rig;
+        let pose = rig.rest_pose();
+        let mut entities: Vec<Entity> = Vec::with_capacity(rig.bones().len());
+        for (i, bone) in rig.bones().iter().enumerate() {
+            let parent = bone.parent.map_or(entity, |p| entities[p]);
+            let local = local_transform(rig, i, &pose);
+            let id = commands
+                .spawn((
+                    Name::new(bone.name.clone()),
+                    local,
+                    BoneEntity {
+                        index: i,
+                        previous: local,
+                        current: local,
+                    },
+                    AnimatedVelocity::default(),
+                    ChildOf(parent),
+                ))
+                .id();
+            entities.push(id);
+        }
+        let mut bones = Vec::new();
+        rig.forward(&pose, None, &mut bones);
+        commands.entity(entity).insert((
+            SkeletonBones {
+                entities,
+                rig: rig.clone(),
+            },
+            SkeletonPose {
+                rate: PoseRate {
+                    root_velocity: Vec3::ZERO,
+                    root_angular_velocity: Vec3::ZERO,
+                    angle_rates: vec![0.0; rig.bones().len()],
+                },
+                pose,
+                bones,
+                bound: None,
+            },
+        ));
+    }
+}
+
+type Players<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Skeleton,
+        &'static mut ClipPlayer,
+        &'static SkeletonBones,
+        &'static mut SkeletonPose,
+        &'static GlobalTransform,
+    ),
+>;
+
+/// Advances every clip player, poses its skeleton, writes the bone transforms and publishes
+/// the bones' world velocities.
+fn play_clips(
+    mut players: Players,
+    mut bones: Query<(&mut Transform, &mut BoneEntity, &mut AnimatedVelocity)>,
+    clips: Res<Assets<ClipAsset>>,
+    time: Res<Time>,
+) {
+    let dt = time.delta_secs();
+    for (entity, skeleton, mut player, skeleton_bones, mut state, global) in &mut players {
+        let state = &mut *state;
+        let Some(asset) = clips.get(&player.clip) else {
+            continue;
+        };
+        let id = player.clip.id();
+        if state.bound.as_ref().is_none_or(|(bound, _)| *bound != id) {
+            let bound = Clip::new(&asset.0, &skeleton.rig);
+            if let Err(err) = &bound {
+                error!("skeleton {entity} cannot play its clip: {err}");
+            }
+            state.bound = Some((id, bound));
+        }
+        let Some((_, Ok(clip))) = &state.bound else {
+            continue;
+        };
+        if player.speed.is_finite() && dt.is_finite() {
+            player.time += dt * player.speed;
+            if clip.looping() && clip.duration() > 0.0 {
+                player.time = player.time.rem_euclid(clip.duration());
+            }
+        }
+        clip.sample(player.time, &mut state.pose, &mut state.rate);
+        for r in &mut state.rate.angle_rates {
+            *r *= player.speed;
+        }
+        state.rate.root_velocity *= player.speed;
+        state.rate.root_angular_velocity *= player.speed;
+        skeleton
+            .rig
+            .forward(&state.pose, Some(&state.rate), &mut state.bones);
+        // The character's own frame: bone velocities from the clip, turned into the world.
+        let rotation: Quat = global.compute_transform().rotation;
+        for (i, &bone_entity) in skeleton_bones.entities().iter().enumerate() {
+            let Ok((mut transform, mut bone, mut velocity)) = bones.get_mut(bone_entity) else {
+                continue;
+            };
+            let local = local_transform(&skeleton.rig, i, &state.pose);
+            if !(local.translation.is_finite() && local.rotation.is_finite()) {
+                continue;
+            }
+            bone.previous = bone.current;
+            bone.current = local;
+            *transform = local;
+            let b = state.bones[i];
+            velocity.linear = rotation * b.linear_velocity;
+            velocity.angular = rotation * b.angular_velocity;
+        }
+    }
+}
+
+/// Between fixed steps, shows every bone between its last two poses.
+fn interpolate_bones(mut bones: Query<(&mut Transform, &BoneEntity)>, fixed: Res<Time<Fixed>>) {
+    let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
+    for (mut transform, bone) in &mut bones {
+        transform.translation = bone
+            .previous
+            .translation
+            .lerp(bone.current.translation, alpha);
+        transform.rotation = bone.previous.rotation.slerp(bone.current.rotation, alpha);
+    }
+}
