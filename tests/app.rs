@@ -4,7 +4,6 @@ use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
 use bevy::ecs::message::MessageCursor;
-use bevy::ecs::system::RunSystemOnce;
 use bevy::mesh::{Indices, Mesh, MeshPlugin, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
