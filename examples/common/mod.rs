@@ -125,6 +125,7 @@ pub fn spawn_stage(
 }
 
 /// A double-sided cloth material.
+#[allow(dead_code)]
 pub fn cloth_material(
     materials: &mut Assets<StandardMaterial>,
     color: Color,
@@ -136,4 +137,118 @@ pub fn cloth_material(
         cull_mode: None,
         ..default()
     })
+}
+
+/// Rigid body parts for the humanoid's bones (see `bevy_drape::skeleton::humanoid`): capsules
+/// for the limbs and torso, spheres for the head and hands, boxes for the feet, each a child of
+/// its bone entity. Add as an `Update` system; it dresses every skeleton once.
+#[allow(dead_code)]
+pub fn dress_humanoids(
+    mut commands: Commands,
+    skeletons: Query<
+        &bevy_drape::prelude::SkeletonBones,
+        Added<bevy_drape::prelude::SkeletonBones>,
+    >,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    use bevy_drape::skeleton::humanoid::radius;
+    for bones in &skeletons {
+        // The library has no renderer, so its bone entities carry no visibility; the meshes
+        // hung from them need it up the hierarchy.
+        for &bone in bones.entities() {
+            commands.entity(bone).insert(Visibility::default());
+        }
+        let skin = materials.add(StandardMaterial {
+            base_color: Color::srgb(0.82, 0.68, 0.58),
+            perceptual_roughness: 0.7,
+            ..default()
+        });
+        let dark = materials.add(Color::srgb(0.2, 0.22, 0.28));
+        // (bone, mesh, centre in the bone's frame, material is dark)
+        let mut parts: Vec<(String, Mesh, Vec3, bool)> = vec![
+            (
+                "pelvis".into(),
+                Capsule3d::new(0.11, 0.1).mesh().into(),
+                Vec3::new(0.0, 0.0, 0.0),
+                true,
+            ),
+            (
+                "chest".into(),
+                Capsule3d::new(radius::TORSO, 0.12).mesh().into(),
+                Vec3::new(0.0, 0.08, 0.0),
+                false,
+            ),
+            (
+                "spine".into(),
+                Capsule3d::new(0.12, 0.05).mesh().into(),
+                Vec3::new(0.0, 0.05, 0.0),
+                false,
+            ),
+            (
+                "neck".into(),
+                Capsule3d::new(0.045, 0.06).mesh().into(),
+                Vec3::new(0.0, 0.04, 0.0),
+                false,
+            ),
+            (
+                "head".into(),
+                Sphere::new(radius::HEAD).mesh().into(),
+                Vec3::new(0.0, 0.1, 0.0),
+                false,
+            ),
+        ];
+        for side in ["l", "r"] {
+            let n = |b: &str| format!("{b}_{side}");
+            parts.extend([
+                (
+                    n("upper_arm"),
+                    Capsule3d::new(radius::ARM, 0.19).mesh().into(),
+                    Vec3::new(0.0, -0.14, 0.0),
+                    false,
+                ),
+                (
+                    n("forearm"),
+                    Capsule3d::new(radius::ARM * 0.9, 0.17).mesh().into(),
+                    Vec3::new(0.0, -0.125, 0.0),
+                    false,
+                ),
+                (
+                    n("hand"),
+                    Sphere::new(0.045).mesh().into(),
+                    Vec3::new(0.0, -0.05, 0.0),
+                    false,
+                ),
+                (
+                    n("thigh"),
+                    Capsule3d::new(radius::THIGH, 0.28).mesh().into(),
+                    Vec3::new(0.0, -0.21, 0.0),
+                    true,
+                ),
+                (
+                    n("shin"),
+                    Capsule3d::new(radius::SHIN, 0.31).mesh().into(),
+                    Vec3::new(0.0, -0.21, 0.0),
+                    true,
+                ),
+                (
+                    n("foot"),
+                    Cuboid::new(0.09, 0.05, 0.22).mesh().into(),
+                    Vec3::new(0.0, -0.015, 0.05),
+                    true,
+                ),
+            ]);
+        }
+        for (bone, mesh, centre, is_dark) in parts {
+            let Some(entity) = bones.get(&bone) else {
+                continue;
+            };
+            commands.spawn((
+                Mesh3d(meshes.add(mesh)),
+                MeshMaterial3d(if is_dark { dark.clone() } else { skin.clone() }),
+                Transform::from_translation(centre),
+                ChildOf(entity),
+            ));
+        }
+    }
 }
