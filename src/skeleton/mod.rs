@@ -4,6 +4,7 @@
 
 pub mod clip;
 pub mod humanoid;
+pub mod ik;
 pub mod plugin;
 pub mod rig;
 pub mod spline;
