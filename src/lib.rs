@@ -42,8 +42,10 @@ pub mod prelude {
     pub use crate::schedule::DrapeSystems;
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     pub use crate::skeleton::humanoid::humanoid;
+    pub use crate::skeleton::ik::{IkChain, IkError, IkResult, IkSettings};
     pub use crate::skeleton::plugin::{
-        BoneEntity, ClipAsset, ClipPlayer, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
+        BoneEntity, ClipAsset, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
+        SkeletonBones, SkeletonPlugin, SkeletonPose,
     };
     pub use crate::skeleton::rig::{BoneDesc, Rig, RigError};
 }

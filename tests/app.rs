@@ -655,3 +655,62 @@ fn a_skeleton_plays_a_clip_file_poses_its_bones_and_publishes_their_velocities()
         collider.linear_velocity
     );
 }
+
+#[test]
+fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
+    let mut app = app();
+    let clip = app
+        .world_mut()
+        .resource_mut::<Assets<ClipAsset>>()
+        .add(ClipAsset(
+            ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap(),
+        ));
+    let rig = std::sync::Arc::new(humanoid());
+    let marker = app.world_mut().spawn(Transform::from_xyz(-0.3, 1.2, 2.35)).id();
+    let goal = |end: &str, target| IkGoal {
+        end_bone: end.into(),
+        length: 3,
+        effector: Vec3::new(0.0, -0.25, 0.0),
+        target,
+        settings: IkSettings::default(),
+        weight: 1.0,
+    };
+    let character = app
+        .world_mut()
+        .spawn((
+            Skeleton { rig: rig.clone() },
+            ClipPlayer::new(clip),
+            InverseKinematics {
+                goals: vec![
+                    // Entity and point targets, 2 m forward of the origin where the character
+                    // stands.
+                    goal("forearm_r", IkTarget::Entity(marker)),
+                    goal("forearm_l", IkTarget::Point(Vec3::new(0.35, 1.1, 2.3))),
+                    goal("tail", IkTarget::Point(Vec3::ZERO)),
+                ],
+                results: Vec::new(),
+            },
+            Transform::from_xyz(0.0, 0.0, 2.0),
+        ))
+        .id();
+    for _ in 0..30 {
+        app.update();
+    }
+    let ik = app.world().get::<InverseKinematics>(character).unwrap();
+    let pose = app.world().get::<SkeletonPose>(character).unwrap();
+    assert_eq!(ik.results.len(), 3);
+    assert!(ik.results[2].is_none(), "the bad goal is skipped");
+    for (g, (bone, target)) in [
+        ("forearm_r", Vec3::new(-0.3, 1.2, 2.35)),
+        ("forearm_l", Vec3::new(0.35, 1.1, 2.3)),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let result = ik.results[g].unwrap();
+        assert!(result.reached, "{bone}: {result:?}");
+        let b = pose.bones[rig.find(bone).unwrap()];
+        let wrist = b.translation + b.rotation * Vec3::new(0.0, -0.25, 0.0) + Vec3::Z * 2.0;
+        assert!(wrist.distance(target) < 1e-3, "{bone}: {wrist} vs {target}");
+    }
+}

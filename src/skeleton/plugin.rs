@@ -9,13 +9,15 @@ use bevy::asset::io::Reader;
 use bevy::asset::{Asset, AssetApp, AssetId, AssetLoader, Assets, Handle, LoadContext};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::ScheduleLabel;
-use bevy::log::error;
+use bevy::log::{error, warn};
 use bevy::math::{Quat, Vec3};
 use bevy::prelude::*;
 use bevy::reflect::TypePath;
 use bevy::transform::TransformSystems;
+use bevy::transform::helper::TransformHelper;
 
 use super::clip::{Clip, ClipDesc, ClipError};
+use super::ik::{IkChain, IkError, IkResult, IkScratch, IkSettings, solve};
 use super::rig::{BoneState, Pose, PoseRate, Rig};
 use crate::collide::plugin::AnimatedVelocity;
 use crate::schedule::DrapeSystems;
@@ -147,8 +149,9 @@ pub struct SkeletonPose {
     bound: Option<(AssetId<ClipAsset>, Result<Clip, ClipError>)>,
 }
 
-/// Spawns bone entities (in `PreUpdate`), samples clips in [`DrapeSystems::Animate`], and
-/// interpolates bone transforms for rendering.
+/// Spawns bone entities (in `PreUpdate`), samples clips in [`DrapeSystems::Animate`], solves
+/// IK and poses the bones in [`DrapeSystems::InverseKinematics`], and interpolates bone
+/// transforms for rendering.
 pub struct SkeletonPlugin {
     /// The schedule the simulation runs in.
     pub schedule: Interned<dyn ScheduleLabel>,
@@ -160,6 +163,12 @@ impl Plugin for SkeletonPlugin {
             .init_asset_loader::<ClipLoader>()
             .add_systems(PreUpdate, spawn_bones)
             .add_systems(self.schedule, play_clips.in_set(DrapeSystems::Animate))
+            .add_systems(
+                self.schedule,
+                (solve_ik, pose_bones)
+                    .chain()
+                    .in_set(DrapeSystems::InverseKinematics),
+            )
             .add_systems(
                 PostUpdate,
                 interpolate_bones.before(TransformSystems::Propagate),
@@ -236,22 +245,14 @@ type Players<'w, 's> = Query<
         Entity,
         &'static Skeleton,
         &'static mut ClipPlayer,
-        &'static SkeletonBones,
         &'static mut SkeletonPose,
-        &'static GlobalTransform,
     ),
 >;
 
-/// Advances every clip player, poses its skeleton, writes the bone transforms and publishes
-/// the bones' world velocities.
-fn play_clips(
-    mut players: Players,
-    mut bones: Query<(&mut Transform, &mut BoneEntity, &mut AnimatedVelocity)>,
-    clips: Res<Assets<ClipAsset>>,
-    time: Res<Time>,
-) {
+/// Advances every clip player and samples its clip into the skeleton's pose and rate.
+fn play_clips(mut players: Players, clips: Res<Assets<ClipAsset>>, time: Res<Time>) {
     let dt = time.delta_secs();
-    for (entity, skeleton, mut player, skeleton_bones, mut state, global) in &mut players {
+    for (entity, skeleton, mut player, mut state) in &mut players {
         let state = &mut *state;
         let Some(asset) = clips.get(&player.clip) else {
             continue;
@@ -279,6 +280,164 @@ fn play_clips(
         }
         state.rate.root_velocity *= player.speed;
         state.rate.root_angular_velocity *= player.speed;
+    }
+}
+
+/// One IK goal of a character: a chain, where its effector should be, and how much IK
+/// overrides the keyframes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IkGoal {
+    /// The chain's last bone.
+    pub end_bone: String,
+    /// How many bones the chain has (the end bone and its nearest ancestors).
+    pub length: usize,
+    /// The effector in the end bone's frame, metres.
+    pub effector: Vec3,
+    /// Where the effector should go.
+    pub target: IkTarget,
+    /// Tolerance and iteration cap.
+    pub settings: IkSettings,
+    /// 0 keeps the keyframed angles, 1 the IK ones; in between blends them.
+    pub weight: f32,
+}
+
+/// Where an [`IkGoal`]'s effector should go.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IkTarget {
+    /// A world point.
+    Point(Vec3),
+    /// The origin of an entity (its transform chain at the current fixed step).
+    Entity(Entity),
+}
+
+/// Inverse kinematics on a [`Skeleton`]: the goals are solved in order in
+/// [`DrapeSystems::InverseKinematics`], after the clip, before the colliders.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct InverseKinematics {
+    /// The goals.
+    pub goals: Vec<IkGoal>,
+    /// The last solve of each goal (`None` where a goal could not be solved).
+    pub results: Vec<Option<IkResult>>,
+}
+
+/// What a chain is built from.
+type ChainKey = (String, usize, Vec3);
+
+/// Built chains of an [`InverseKinematics`], cached by goal.
+#[derive(Component, Clone, Debug, Default)]
+pub struct IkState {
+    chains: Vec<Option<(ChainKey, Result<IkChain, IkError>)>>,
+    scratch: IkScratch,
+    solved: Pose,
+    previous: Option<Vec<f32>>,
+}
+
+type IkCharacters<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static Skeleton,
+        &'static mut InverseKinematics,
+        &'static mut SkeletonPose,
+        Option<&'static mut IkState>,
+    ),
+>;
+
+/// Solves every character's IK goals on top of its keyframed pose.
+fn solve_ik(
+    mut commands: Commands,
+    mut characters: IkCharacters,
+    transforms: TransformHelper,
+    time: Res<Time>,
+) {
+    let dt = time.delta_secs();
+    for (entity, skeleton, mut ik, mut state, ik_state) in &mut characters {
+        let Some(mut ik_state) = ik_state else {
+            commands.entity(entity).insert(IkState::default());
+            continue;
+        };
+        let Ok(character) = transforms.compute_global_transform(entity) else {
+            continue;
+        };
+        let to_local = character.affine().inverse();
+        let rig = &skeleton.rig;
+        let ik = &mut *ik;
+        let ik_state = &mut *ik_state;
+        ik.results.resize(ik.goals.len(), None);
+        ik_state.chains.resize(ik.goals.len(), None);
+        let keyframed = state.pose.angles.clone();
+        for (g, goal) in ik.goals.iter().enumerate() {
+            ik.results[g] = None;
+            let key = (goal.end_bone.clone(), goal.length, goal.effector);
+            if ik_state.chains[g]
+                .as_ref()
+                .is_none_or(|(built, _)| *built != key)
+            {
+                let chain = IkChain::new(rig, &goal.end_bone, goal.length, goal.effector);
+                if let Err(err) = &chain {
+                    warn!("character {entity}: IK goal {g} is ignored: {err}");
+                }
+                ik_state.chains[g] = Some((key, chain));
+            }
+            let Some((_, Ok(chain))) = &ik_state.chains[g] else {
+                continue;
+            };
+            let world_target = match goal.target {
+                IkTarget::Point(p) => Some(p),
+                IkTarget::Entity(e) => transforms
+                    .compute_global_transform(e)
+                    .ok()
+                    .map(|t| t.translation()),
+            };
+            let Some(world_target) = world_target.filter(|t| t.is_finite()) else {
+                continue;
+            };
+            let target = to_local.transform_point3(world_target);
+            ik_state.solved.clone_from(&state.pose);
+            let result = solve(
+                rig,
+                chain,
+                &mut ik_state.solved,
+                target,
+                &goal.settings,
+                &mut ik_state.scratch,
+            );
+            let weight = goal.weight.clamp(0.0, 1.0);
+            for &b in &chain.bones {
+                let (from, to) = (state.pose.angles[b], ik_state.solved.angles[b]);
+                state.pose.angles[b] = from + (to - from) * weight;
+            }
+            ik.results[g] = Some(result);
+        }
+        // Hinge rates of the bones IK moved: the change of their final angle over the step.
+        if dt > 0.0
+            && let Some(previous) = &ik_state.previous
+            && previous.len() == state.pose.angles.len()
+        {
+            for b in 0..keyframed.len() {
+                if state.pose.angles[b] != keyframed[b] {
+                    state.rate.angle_rates[b] = (state.pose.angles[b] - previous[b]) / dt;
+                }
+            }
+        }
+        ik_state.previous = Some(state.pose.angles.clone());
+    }
+}
+
+/// Runs forward kinematics on every skeleton's pose, writes its bone transforms and publishes
+/// the bones' world velocities.
+fn pose_bones(
+    mut skeletons: Query<(
+        &Skeleton,
+        &SkeletonBones,
+        &mut SkeletonPose,
+        &GlobalTransform,
+    )>,
+    mut bones: Query<(&mut Transform, &mut BoneEntity, &mut AnimatedVelocity)>,
+) {
+    for (skeleton, skeleton_bones, mut state, global) in &mut skeletons {
+        let state = &mut *state;
         skeleton
             .rig
             .forward(&state.pose, Some(&state.rate), &mut state.bones);

@@ -97,7 +97,7 @@ pub struct Rig {
 }
 
 /// A pose: the root's translation and rotation and one angle per bone (the root's is unused).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Pose {
     /// Root translation, metres.
     pub root_translation: Vec3,
@@ -108,7 +108,7 @@ pub struct Pose {
 }
 
 /// The time derivative of a [`Pose`].
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct PoseRate {
     /// Root velocity, m/s.
     pub root_velocity: Vec3,
