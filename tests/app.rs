@@ -666,7 +666,10 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
             ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap(),
         ));
     let rig = std::sync::Arc::new(humanoid());
-    let marker = app.world_mut().spawn(Transform::from_xyz(-0.3, 1.2, 2.35)).id();
+    let marker = app
+        .world_mut()
+        .spawn(Transform::from_xyz(-0.3, 1.2, 2.35))
+        .id();
     let goal = |end: &str, target| IkGoal {
         end_bone: end.into(),
         length: 3,
