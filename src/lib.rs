@@ -7,6 +7,7 @@ pub mod cloth;
 pub use bevy_obj;
 pub mod collide;
 pub mod error;
+pub mod interact;
 pub mod scenes;
 pub mod schedule;
 pub mod skeleton;

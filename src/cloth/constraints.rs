@@ -92,8 +92,12 @@ pub struct Tether {
 
 /// Projects the unilateral tether constraint `|x_p - x_anchor| <= length` (stiffness 1).
 #[inline(always)]
-pub fn project_tether(x: &mut [Vec3A], tether: &Tether) {
+pub fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
     let p = tether.particle as usize;
+    // A particle held in place for now (grabbed) is not pulled back.
+    if w[p] == 0.0 {
+        return;
+    }
     let anchor = x[tether.anchor as usize];
     let d = x[p] - anchor;
     let len_sq = d.length_squared();

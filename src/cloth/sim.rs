@@ -46,7 +46,7 @@ fn project_long_range(limits: &[StretchLimit], tethers: &[Tether], x: &mut [Vec3
         }
     });
     for tether in tethers {
-        project_tether(x, tether);
+        project_tether(x, w, tether);
     }
 }
 
@@ -201,6 +201,8 @@ pub struct ClothSim {
     last_substeps: u32,
     colliders: Vec<Collider>,
     contacts: ContactScratch,
+    /// The particle being dragged, moved like a pin.
+    drag: Option<Pin>,
 }
 
 impl ClothSim {
@@ -255,6 +257,50 @@ impl ClothSim {
             last_substeps: 0,
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
+            drag: None,
+        }
+    }
+
+    /// Grabs `particle`: from now on it is held like a pin (inverse mass 0) and moved to
+    /// [`ClothSim::drag_to`]'s goal over each step, until [`ClothSim::release`]. Grabbing
+    /// another particle releases the first. Returns `false` if the particle does not exist.
+    pub fn grab(&mut self, particle: u32) -> bool {
+        let Some(&p) = self.state.positions.get(particle as usize) else {
+            return false;
+        };
+        self.release();
+        self.drag = Some(Pin {
+            particle,
+            start: p,
+            end: p,
+        });
+        self.refresh_masses();
+        // The grabbed particle is held like a pin: tether the cloth to it too, so a hard yank
+        // pulls the whole cloth along instead of stretching the edges next to it.
+        self.rebuild_tethers();
+        true
+    }
+
+    /// Sets where the grabbed particle must be at the end of the next step (ignored if
+    /// nothing is grabbed or the goal is not finite).
+    pub fn drag_to(&mut self, goal: Vec3) {
+        if let Some(drag) = &mut self.drag
+            && goal.is_finite()
+        {
+            drag.end = goal.into();
+        }
+    }
+
+    /// The grabbed particle, if any.
+    pub fn grabbed(&self) -> Option<u32> {
+        self.drag.map(|d| d.particle)
+    }
+
+    /// Lets go of the grabbed particle; it gets its mass back (unless it is pinned).
+    pub fn release(&mut self) {
+        if self.drag.take().is_some() {
+            self.refresh_masses();
+            self.rebuild_tethers();
         }
     }
 
@@ -398,9 +444,13 @@ impl ClothSim {
         Ok(())
     }
 
-    /// Puts the cloth back in its rest shape, at rest, pins at their rest positions.
+    /// Puts the cloth back in its rest shape, at rest, pins at their rest positions, nothing
+    /// grabbed.
     pub fn reset(&mut self) {
         self.state = ClothState::at_rest(&self.model);
+        if self.drag.take().is_some() {
+            self.rebuild_tethers();
+        }
         for pin in &mut self.pins {
             let p = self.state.positions[pin.particle as usize];
             pin.start = p;
@@ -415,7 +465,7 @@ impl ClothSim {
         for (i, w) in self.state.inverse_masses.iter_mut().enumerate() {
             *w = inverse_mass(self.model.mass(i));
         }
-        for pin in &self.pins {
+        for pin in self.pins.iter().chain(self.drag.as_ref()) {
             self.state.inverse_masses[pin.particle as usize] = 0.0;
         }
     }
@@ -427,11 +477,11 @@ impl ClothSim {
     /// geodesic and holds the cloth tighter than its edges would.
     fn rebuild_tethers(&mut self) {
         self.tethers.clear();
-        if self.pins.is_empty() {
+        if self.pins.is_empty() && self.drag.is_none() {
             return;
         }
         let rest = &self.model.rest_positions;
-        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(self.pins.len());
+        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(self.pins.len() + 1);
         for (i, &w) in self.state.inverse_masses.iter().enumerate() {
             if w == 0.0 {
                 continue;
@@ -440,6 +490,7 @@ impl ClothSim {
             nearest.extend(
                 self.pins
                     .iter()
+                    .chain(self.drag.as_ref())
                     .map(|pin| (rest[i].distance(rest[pin.particle as usize]), pin.particle)),
             );
             let k = TETHERS_PER_PARTICLE.min(nearest.len());
@@ -491,7 +542,7 @@ impl ClothSim {
             SolverMethod::MassSpring => self.step_mass_spring(settings, acceleration, dt),
             SolverMethod::Hybrid => self.step_hybrid(settings, acceleration, dt),
         }
-        for pin in &mut self.pins {
+        for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
         }
     }
@@ -543,7 +594,7 @@ impl ClothSim {
                 }
             }
             let t_end = (s + 1) as f32 / substeps as f32;
-            for pin in &self.pins {
+            for pin in self.pins.iter().chain(self.drag.as_ref()) {
                 x[pin.particle as usize] = pin.start.lerp(pin.end, t_end);
             }
 
@@ -695,7 +746,7 @@ impl ClothSim {
                 }
             }
             let t_end = (s + 1) as f32 / substeps as f32;
-            for pin in &self.pins {
+            for pin in self.pins.iter().chain(self.drag.as_ref()) {
                 let p = pin.particle as usize;
                 x[p] = pin.start.lerp(pin.end, t_end);
                 v[p] = (pin.end - pin.start) * pin_velocity;
