@@ -119,3 +119,30 @@ fn a_ray_through_a_particle_picks_it_and_a_ray_that_misses_picks_nothing() {
     assert!(pick_particle(&positions, Vec3::new(0.2, 3.0, 0.1), Vec3::Y, 0.03).is_none());
     assert!(pick_particle(&positions, Vec3::new(0.2, 3.0, 0.1), Vec3::ZERO, 0.03).is_none());
 }
+
+#[test]
+fn a_drag_cannot_pull_a_pinned_cloth_apart() {
+    let scene = HangingCloth { n: 16 };
+    let mut sim = scene.build();
+    let settings = SolverSettings::default();
+    let corner = scene.corner();
+    sim.grab(corner);
+    let mut worst = 0.0f32;
+    for k in 0..120 {
+        // Pull ever farther away from the pins, to 6 m.
+        sim.drag_to(Vec3::new(1.0 + 0.05 * k as f32, 1.0, 1.0 + 0.05 * k as f32));
+        sim.step(&settings, GRAVITY, DT);
+        worst = worst.max(sim.strain().max);
+        assert_eq!(sim.divergence(&DivergenceBounds::default()), None);
+    }
+    // The corner stops where the cloth is taut: its rest distance from the nearer pin.
+    let at = Vec3::from(sim.state().positions[corner as usize]);
+    let pin = Vec3::from(sim.state().positions[scene.pins()[1] as usize]);
+    println!(
+        "corner {:.4} m from the pin (rest 1 m), worst strain {:.2}%",
+        at.distance(pin),
+        worst * 100.0
+    );
+    assert!(at.distance(pin) <= 1.0 + 1e-4);
+    assert!(worst < 0.05);
+}

@@ -24,12 +24,13 @@ impl Plugin for ExamplePlugin {
             path,
             frame: 0,
         })
+        .add_plugins(bevy_drape::interact::drag::ClothDragPlugin)
         .add_systems(Update, (orbit_camera, smoke_run));
     }
 }
 
-/// A camera that orbits `focus`: drag with the left or right mouse button to turn, scroll to
-/// zoom.
+/// A camera that orbits `focus`: drag with the left or right mouse button to turn (the left
+/// one drags cloth when pressed on a cloth), scroll to zoom.
 #[derive(Component, Clone, Copy, Debug)]
 pub struct OrbitCamera {
     /// The point looked at.
@@ -56,9 +57,11 @@ fn orbit_camera(
     buttons: Res<ButtonInput<MouseButton>>,
     motion: Res<AccumulatedMouseMotion>,
     scroll: Res<AccumulatedMouseScroll>,
+    drag: Res<bevy_drape::interact::drag::ClothDrag>,
 ) {
     for (mut orbit, mut transform) in &mut cameras {
-        if buttons.any_pressed([MouseButton::Left, MouseButton::Right]) {
+        // The left button drags cloth when it is pressed on one (and turns the view when not).
+        if buttons.any_pressed([MouseButton::Left, MouseButton::Right]) && !drag.is_active() {
             orbit.yaw -= motion.delta.x * 0.005;
             orbit.pitch = (orbit.pitch + motion.delta.y * 0.005).clamp(-1.5, 1.5);
         }

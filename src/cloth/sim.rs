@@ -282,12 +282,30 @@ impl ClothSim {
     }
 
     /// Sets where the grabbed particle must be at the end of the next step (ignored if
-    /// nothing is grabbed or the goal is not finite).
+    /// nothing is grabbed or the goal is not finite). The goal is kept within the particle's
+    /// rest distance of every pin, so a drag cannot tear a pinned cloth apart.
     pub fn drag_to(&mut self, goal: Vec3) {
-        if let Some(drag) = &mut self.drag
-            && goal.is_finite()
-        {
-            drag.end = goal.into();
+        let Some(drag) = self.drag else {
+            return;
+        };
+        if !goal.is_finite() {
+            return;
+        }
+        let rest = &self.model.rest_positions;
+        let mut goal = Vec3A::from(goal);
+        // Alternating projections onto the spheres around the pins.
+        for _ in 0..8 {
+            for pin in &self.pins {
+                let reach = rest[drag.particle as usize].distance(rest[pin.particle as usize]);
+                let d = goal - pin.end;
+                let len = d.length();
+                if len > reach && len > 0.0 {
+                    goal = pin.end + d * (reach / len);
+                }
+            }
+        }
+        if let Some(drag) = &mut self.drag {
+            drag.end = goal;
         }
     }
 
