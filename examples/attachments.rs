@@ -105,7 +105,11 @@ fn draw_path(mut gizmos: Gizmos, bars: Query<&Path>) {
         let points = (0..=120).map(|k| path.0.sample(k as f32 * 0.05).0);
         gizmos.linestrip(points, Color::srgb(0.9, 0.8, 0.2));
         for &t in path.0.times() {
-            gizmos.sphere(Isometry3d::from_translation(path.0.sample(t).0), 0.03, Color::WHITE);
+            gizmos.sphere(
+                Isometry3d::from_translation(path.0.sample(t).0),
+                0.03,
+                Color::WHITE,
+            );
         }
     }
 }

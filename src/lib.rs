@@ -27,8 +27,8 @@ pub mod prelude {
     pub use crate::DrapePlugins;
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
-        Cloth, ClothBuildError, ClothDiverged, ClothPlugin, ClothSettings, ClothSimulation,
-        DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
+        Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
+        ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
     pub use crate::cloth::{
         ClothModel, ClothSim, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
@@ -40,6 +40,7 @@ pub mod prelude {
         ColliderWorld, KinematicVelocity,
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError};
+    pub use crate::interact::colors::DebugColorMode;
     pub use crate::schedule::DrapeSystems;
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     pub use crate::skeleton::humanoid::humanoid;

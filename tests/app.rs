@@ -717,3 +717,49 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
         assert!(wrist.distance(target) < 1e-3, "{bone}: {wrist} vs {target}");
     }
 }
+
+#[test]
+fn debug_colours_are_written_into_the_mesh_and_white_when_off() {
+    let mut app = app();
+    let grid = GridDesc::square(1.0, 6, Vec3::ZERO);
+    let mesh = add_grid(&mut app, &grid);
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(mesh),
+            Cloth::pinned([0, 5]),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ))
+        .id();
+    let colours = |app: &App| {
+        let handle = &app.world().get::<Mesh3d>(cloth).unwrap().0;
+        let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+        match mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
+            Some(VertexAttributeValues::Float32x4(c)) => Some(c.clone()),
+            _ => None,
+        }
+    };
+    for _ in 0..5 {
+        app.update();
+    }
+    // The cloth's mesh has white vertex colours from the start (a constant vertex layout).
+    let white = vec![[1.0f32; 4]; 36];
+    assert_eq!(colours(&app), Some(white.clone()));
+    app.insert_resource(ClothDebugColors(DebugColorMode::Pinned));
+    app.update();
+    let c = colours(&app).expect("colours written");
+    assert_eq!(c.len(), 36);
+    assert_ne!(c[0], c[7], "a pin and a free vertex differ");
+    app.insert_resource(ClothDebugColors(DebugColorMode::Strain));
+    app.update();
+    assert!(
+        colours(&app)
+            .unwrap()
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite())
+    );
+    app.insert_resource(ClothDebugColors(DebugColorMode::Off));
+    app.update();
+    assert_eq!(colours(&app), Some(white));
+}

@@ -1,5 +1,6 @@
-//! Helpers shared by the rendering examples: an orbit camera and a "run N frames, save a
-//! screenshot, exit" switch for smoke tests and pictures.
+//! Helpers shared by the rendering examples: an orbit camera, mouse dragging of cloth, C to
+//! cycle debug colours, and a "run N frames, save a screenshot, exit" switch for smoke tests
+//! and pictures.
 //!
 //! Environment variables:
 //! - `DRAPE_FRAMES=N`: after N rendered frames, save a screenshot and exit;
@@ -25,7 +26,7 @@ impl Plugin for ExamplePlugin {
             frame: 0,
         })
         .add_plugins(bevy_drape::interact::drag::ClothDragPlugin)
-        .add_systems(Update, (orbit_camera, smoke_run));
+        .add_systems(Update, (orbit_camera, smoke_run, cycle_debug_colors));
     }
 }
 
@@ -67,6 +68,17 @@ fn orbit_camera(
         }
         orbit.radius = (orbit.radius * (1.0 - scroll.delta.y * 0.1)).clamp(0.3, 50.0);
         *transform = orbit.transform();
+    }
+}
+
+/// C cycles the cloths' debug colours: off, strain, speed, contact, pinned.
+fn cycle_debug_colors(
+    input: Res<ButtonInput<KeyCode>>,
+    mut colors: ResMut<bevy_drape::prelude::ClothDebugColors>,
+) {
+    if input.just_pressed(KeyCode::KeyC) {
+        colors.0 = colors.0.next();
+        info!("debug colours: {:?}", colors.0);
     }
 }
 

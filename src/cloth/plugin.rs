@@ -18,6 +18,7 @@ use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
 use crate::collide::plugin::ColliderWorld;
 use crate::error::ClothError;
+use crate::interact::colors::{DebugColorMode, debug_colors};
 use crate::schedule::DrapeSystems;
 
 /// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world
@@ -146,6 +147,11 @@ impl ClothSettings {
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
 pub struct DefaultClothSettings(pub ClothSettings);
 
+/// The debug colours every cloth's mesh shows (vertex colours, multiplied with its
+/// material's colour; off shows the mesh's own vertex colours, or white). Default: off.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ClothDebugColors(pub DebugColorMode);
+
 /// World-wide simulation parameters.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct DrapeSettings {
@@ -173,6 +179,9 @@ pub struct ClothSimulation {
     /// Positions at the end of the previous fixed step, for interpolation.
     render_from: Vec<Vec3A>,
     normals: Vec<Vec3>,
+    colors: Vec<[f32; 4]>,
+    /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
+    base_colors: Vec<[f32; 4]>,
     planes: Vec<Plane>,
     warned_invalid_settings: bool,
     /// The settings the cloth diverged with, while it is frozen.
@@ -224,6 +233,7 @@ impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<DefaultClothSettings>()
             .init_resource::<DrapeSettings>()
+            .init_resource::<ClothDebugColors>()
             .add_message::<ClothDiverged>()
             .add_systems(self.schedule, build_cloths.in_set(DrapeSystems::Prepare))
             .add_systems(self.schedule, step_cloths.in_set(DrapeSystems::Step))
@@ -259,6 +269,8 @@ fn build_simulation(
             local_rest: local,
             render_from,
             normals: Vec::new(),
+            colors: Vec::new(),
+            base_colors: Vec::new(),
             planes: Vec::new(),
             warned_invalid_settings: false,
             frozen_with: None,
@@ -297,12 +309,20 @@ fn build_cloths(
             .compute_global_transform(entity)
             .unwrap_or_default();
         match build_simulation(mesh, cloth, &global, density) {
-            Ok((simulation, warnings)) => {
+            Ok((mut simulation, warnings)) => {
                 for warning in warnings {
                     warn!("cloth {entity}: {warning}");
                 }
-                // The cloth writes into its mesh, so it gets a copy of its own.
-                let own_mesh = mesh.clone();
+                // The cloth writes into its mesh, so it gets a copy of its own, with vertex
+                // colours from the start (the mesh's own, or white): debug colours then only
+                // change values, never the vertex layout the renderer was prepared for.
+                let mut own_mesh = mesh.clone();
+                let vertices = simulation.sim.state().len();
+                simulation.base_colors = match own_mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
+                    Some(VertexAttributeValues::Float32x4(c)) if c.len() == vertices => c.clone(),
+                    _ => vec![[1.0; 4]; vertices],
+                };
+                own_mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, simulation.base_colors.clone());
                 let own_mesh = meshes.add(own_mesh);
                 commands
                     .entity(entity)
@@ -426,6 +446,7 @@ fn write_back_meshes(
     mut cloths: Query<(&mut ClothSimulation, &Mesh3d, &GlobalTransform)>,
     mut meshes: ResMut<Assets<Mesh>>,
     fixed: Res<Time<Fixed>>,
+    debug: Res<ClothDebugColors>,
 ) {
     let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
     for (mut simulation, mesh3d, global) in &mut cloths {
@@ -469,6 +490,19 @@ fn write_back_meshes(
                 let normals: Vec<[f32; 3]> = normals.collect();
                 mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
             }
+        }
+        debug_colors(&simulation.sim, debug.0, &mut simulation.colors);
+        let colors = if simulation.colors.is_empty() {
+            &simulation.base_colors
+        } else {
+            &simulation.colors
+        };
+        if let Ok(Some(VertexAttributeValues::Float32x4(out))) =
+            mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_COLOR)
+            && out.len() == colors.len()
+            && out.as_slice() != colors.as_slice()
+        {
+            out.copy_from_slice(colors);
         }
     }
 }
