@@ -132,6 +132,9 @@ pub struct IkScratch {
     targets: Vec<Vec3>,
     lengths: Vec<f32>,
     best: Vec<f32>,
+    joints: Vec<Vec3>,
+    rotations: Vec<Quat>,
+    path: Vec<usize>,
 }
 
 /// A bone's hinge angle clamped to its limits.
@@ -143,10 +146,10 @@ fn clamp(rig: &Rig, bone: usize, angle: f32) -> f32 {
 }
 
 /// World rotation and position of the first bone's parent.
-fn base(rig: &Rig, chain: &IkChain, pose: &Pose) -> (Quat, Vec3) {
+fn base(rig: &Rig, chain: &IkChain, pose: &Pose, path: &mut Vec<usize>) -> (Quat, Vec3) {
     // Forward kinematics down to the parent of the chain's first bone.
     let first = chain.bones[0];
-    let mut path = Vec::new();
+    path.clear();
     let mut b = rig.bones()[first].parent;
     while let Some(p) = b {
         path.push(p);
@@ -198,10 +201,17 @@ pub fn solve(
 ) -> IkResult {
     let n = chain.bones.len();
     let bones = rig.bones();
-    let mut joints = Vec::with_capacity(n + 1);
-    let mut rotations = Vec::with_capacity(n);
-    let base_frame = base(rig, chain, pose);
-    chain_fk(rig, chain, pose, base_frame, &mut joints, &mut rotations);
+    let IkScratch {
+        points,
+        targets,
+        lengths,
+        best,
+        joints,
+        rotations,
+        path,
+    } = scratch;
+    let base_frame = base(rig, chain, pose, path);
+    chain_fk(rig, chain, pose, base_frame, joints, rotations);
     if !target.is_finite() || chain.bones.iter().any(|&b| !pose.angles[b].is_finite()) {
         let error = joints[n].distance(target);
         return IkResult {
@@ -216,8 +226,8 @@ pub fn solve(
     }
     // Distinct points: the first joint, later joints that are not at the previous one, the
     // effector.
-    scratch.points.clear();
-    scratch.points.push(0);
+    points.clear();
+    points.push(0);
     for k in 1..=n {
         let offset = if k < n {
             bones[chain.bones[k]].offset
@@ -225,19 +235,17 @@ pub fn solve(
             chain.effector
         };
         if offset.length_squared() > 1e-12 {
-            scratch.points.push(k);
+            points.push(k);
         }
     }
-    let m = scratch.points.len();
-    scratch.lengths.clear();
+    let m = points.len();
+    lengths.clear();
     for w in 0..m - 1 {
-        let (a, b) = (scratch.points[w], scratch.points[w + 1]);
-        scratch.lengths.push(joints[a].distance(joints[b]));
+        let (a, b) = (points[w], points[w + 1]);
+        lengths.push(joints[a].distance(joints[b]));
     }
-    scratch.best.clear();
-    scratch
-        .best
-        .extend(chain.bones.iter().map(|&b| pose.angles[b]));
+    best.clear();
+    best.extend(chain.bones.iter().map(|&b| pose.angles[b]));
     let mut best_error = joints[n].distance(target);
     let mut error = best_error;
     let mut iterations = 0;
@@ -247,27 +255,25 @@ pub fn solve(
     while iterations < settings.max_iterations && best_error > settings.tolerance {
         iterations += 1;
         // 1. Backward, unconstrained.
-        scratch.targets.clear();
-        scratch
-            .targets
-            .extend(scratch.points.iter().map(|&k| joints[k]));
-        scratch.targets[m - 1] = target;
+        targets.clear();
+        targets.extend(points.iter().map(|&k| joints[k]));
+        targets[m - 1] = target;
         for w in (1..m - 1).rev() {
-            let next = scratch.targets[w + 1];
-            let dir = (scratch.targets[w] - next).normalize_or_zero();
-            scratch.targets[w] = next + dir * scratch.lengths[w];
+            let next = targets[w + 1];
+            let dir = (targets[w] - next).normalize_or_zero();
+            targets[w] = next + dir * lengths[w];
         }
         // 2. Forward, each bone about its own hinge.
         let (mut parent_rotation, mut position) = base_frame;
         let mut w = 0; // the distinct point at or before the current joint
         for (k, &b) in chain.bones.iter().enumerate() {
             position += parent_rotation * bones[b].offset;
-            if scratch.points.get(w + 1) == Some(&k) {
+            if points.get(w + 1) == Some(&k) {
                 w += 1;
             }
             // The next distinct point this bone carries, and the vector to it in this bone's
             // frame with the later bones at the same joint at their current angles.
-            let next_point = scratch.points.get(w + 1).copied().unwrap_or(n);
+            let next_point = points.get(w + 1).copied().unwrap_or(n);
             let mut carried = if next_point < n {
                 bones[chain.bones[next_point]].offset
             } else {
@@ -279,7 +285,7 @@ pub fn solve(
             }
             let axis = parent_rotation * bones[b].axis;
             let v0 = parent_rotation * carried;
-            let u = scratch.targets.get(w + 1).copied().unwrap_or(target) - position;
+            let u = targets.get(w + 1).copied().unwrap_or(target) - position;
             let (vp, up) = (v0 - axis * axis.dot(v0), u - axis * axis.dot(u));
             if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
                 let angle = axis.dot(vp.cross(up)).atan2(vp.dot(up));
@@ -287,7 +293,7 @@ pub fn solve(
             }
             parent_rotation = (parent_rotation * rig.local_rotation(b, pose.angles[b])).normalize();
         }
-        chain_fk(rig, chain, pose, base_frame, &mut joints, &mut rotations);
+        chain_fk(rig, chain, pose, base_frame, joints, rotations);
         // 3. One sweep from the end bone back: each hinge turns the effector as close to the
         //    target as it can (the FABRIK passes alone settle slowly where the hinge planes
         //    and the target disagree).
@@ -304,13 +310,13 @@ pub fn solve(
             if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
                 let turn = axis.dot(vp.cross(up)).atan2(vp.dot(up));
                 pose.angles[b] = clamp(rig, b, pose.angles[b] + turn);
-                chain_fk(rig, chain, pose, base_frame, &mut joints, &mut rotations);
+                chain_fk(rig, chain, pose, base_frame, joints, rotations);
             }
         }
         let new_error = joints[n].distance(target);
         if new_error < best_error {
             best_error = new_error;
-            for (slot, &b) in scratch.best.iter_mut().zip(&chain.bones) {
+            for (slot, &b) in best.iter_mut().zip(&chain.bones) {
                 *slot = pose.angles[b];
             }
         }
@@ -334,11 +340,11 @@ pub fn solve(
                     .unwrap_or((-std::f32::consts::PI, std::f32::consts::PI));
                 pose.angles[b] = lo + (hi - lo) * r;
             }
-            chain_fk(rig, chain, pose, base_frame, &mut joints, &mut rotations);
+            chain_fk(rig, chain, pose, base_frame, joints, rotations);
             error = joints[n].distance(target);
         }
     }
-    for (&b, &angle) in chain.bones.iter().zip(&scratch.best) {
+    for (&b, &angle) in chain.bones.iter().zip(best.iter()) {
         pose.angles[b] = angle;
     }
     IkResult {
@@ -351,15 +357,8 @@ pub fn solve(
 
 /// The effector's world position for `pose`.
 pub fn effector_position(rig: &Rig, chain: &IkChain, pose: &Pose) -> Vec3 {
-    let mut joints = Vec::new();
-    let mut rotations = Vec::new();
-    chain_fk(
-        rig,
-        chain,
-        pose,
-        base(rig, chain, pose),
-        &mut joints,
-        &mut rotations,
-    );
+    let (mut joints, mut rotations, mut path) = (Vec::new(), Vec::new(), Vec::new());
+    let frame = base(rig, chain, pose, &mut path);
+    chain_fk(rig, chain, pose, frame, &mut joints, &mut rotations);
     joints[chain.bones.len()]
 }
