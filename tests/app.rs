@@ -36,6 +36,12 @@ fn add_grid(app: &mut App, grid: &GridDesc) -> Handle<Mesh> {
         .add(grid_mesh(grid))
 }
 
+/// Spawns the grid as a cloth entity.
+fn spawn_cloth(app: &mut App, grid: &GridDesc, cloth: Cloth, transform: Transform) -> Entity {
+    let mesh = add_grid(app, grid);
+    app.world_mut().spawn((Mesh3d(mesh), cloth, transform)).id()
+}
+
 fn positions(app: &App, entity: Entity) -> Vec<Vec3> {
     let handle = &app.world().get::<Mesh3d>(entity).unwrap().0;
     let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
@@ -443,15 +449,12 @@ fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping()
         .spawn((ClothCollider::plane(), Transform::from_xyz(0.0, 0.5, 0.0)))
         .id();
     let grid = GridDesc::square(1.0, 8, Vec3::ZERO);
-    let mesh = add_grid(&mut app, &grid);
-    let cloth = app
-        .world_mut()
-        .spawn((
-            Mesh3d(mesh),
-            Cloth::default(),
-            Transform::from_xyz(0.0, 1.0, 0.0),
-        ))
-        .id();
+    let cloth = spawn_cloth(
+        &mut app,
+        &grid,
+        Cloth::default(),
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    );
     for _ in 0..60 {
         app.update();
     }
@@ -538,15 +541,12 @@ fn cloth_drapes_over_a_box_collider_read_from_an_obj_file() {
     app.world_mut().spawn(ClothCollider::mesh(box_mesh));
     app.world_mut().spawn(ClothCollider::plane());
     let grid = GridDesc::square(1.0, 16, Vec3::new(-0.5, 0.0, -0.5));
-    let mesh = add_grid(&mut app, &grid);
-    let cloth = app
-        .world_mut()
-        .spawn((
-            Mesh3d(mesh),
-            Cloth::default(),
-            Transform::from_xyz(0.0, 1.0, 0.0),
-        ))
-        .id();
+    let cloth = spawn_cloth(
+        &mut app,
+        &grid,
+        Cloth::default(),
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    );
     for _ in 0..129 {
         app.update();
     }
@@ -722,15 +722,12 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
 fn debug_colours_are_written_into_the_mesh_and_white_when_off() {
     let mut app = app();
     let grid = GridDesc::square(1.0, 6, Vec3::ZERO);
-    let mesh = add_grid(&mut app, &grid);
-    let cloth = app
-        .world_mut()
-        .spawn((
-            Mesh3d(mesh),
-            Cloth::pinned([0, 5]),
-            Transform::from_xyz(0.0, 1.0, 0.0),
-        ))
-        .id();
+    let cloth = spawn_cloth(
+        &mut app,
+        &grid,
+        Cloth::pinned([0, 5]),
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    );
     let colours = |app: &App| {
         let handle = &app.world().get::<Mesh3d>(cloth).unwrap().0;
         let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();

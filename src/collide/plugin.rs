@@ -299,14 +299,8 @@ fn gather_colliders(
                 let r = end.translation - Vec3A::from(bone.translation());
                 let omega = Vec3A::from(a.angular);
                 (Vec3A::from(a.linear) + omega.cross(r), omega)
-            } else if dt > 0.0 {
-                let turn = end.rotation * start.rotation.inverse();
-                (
-                    (end.translation - start.translation) / dt,
-                    Vec3A::from(turn.to_scaled_axis()) / dt,
-                )
             } else {
-                (Vec3A::ZERO, Vec3A::ZERO)
+                start.velocity_to(&end, dt)
             };
             let solver_collider = Collider {
                 shape,

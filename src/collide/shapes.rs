@@ -43,6 +43,19 @@ impl Pose {
         }
     }
 
+    /// The constant linear and angular velocity (world frame) that carries this pose to `to`
+    /// in `dt` seconds; zero for `dt <= 0`.
+    pub fn velocity_to(&self, to: &Self, dt: f32) -> (Vec3A, Vec3A) {
+        if dt.is_nan() || dt <= 0.0 {
+            return (Vec3A::ZERO, Vec3A::ZERO);
+        }
+        let turn = to.rotation * self.rotation.inverse();
+        (
+            (to.translation - self.translation) / dt,
+            Vec3A::from(turn.to_scaled_axis()) / dt,
+        )
+    }
+
     /// Whether the translation and rotation are finite and the rotation is a unit quaternion.
     pub fn is_valid(&self) -> bool {
         self.translation.is_finite() && self.rotation.is_finite() && self.rotation.is_normalized()
