@@ -1,7 +1,7 @@
 //! Runs a standard scene headless and prints one JSON line.
 //!
 //! ```text
-//! cargo run --release --example scenes -- s1|s2 --n 64 [--substeps 8] [--iterations 1]
+//! cargo run --release --example scenes -- s1|s2|drop --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
@@ -15,7 +15,9 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy_drape::cloth::{SolverMethod, SolverSettings};
-use bevy_drape::scenes::{Drape, DrapeRun, HangingCloth, SceneRun, median};
+use bevy_drape::scenes::{
+    Drape, DrapeRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
+};
 
 fn main() {
     if let Err(message) = run() {
@@ -26,11 +28,14 @@ fn main() {
 
 fn run() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
-    let scene = args.next().ok_or("missing scene name (s1, s2)")?;
+    let scene = args.next().ok_or("missing scene name (s1, s2, drop)")?;
     let mut n = 32u32;
     let mut runs = 3u32;
     let mut frames = 120u32;
-    let mut settings = SolverSettings::default();
+    let mut settings = match scene.as_str() {
+        "drop" => SheetDrop::settings(false),
+        _ => SolverSettings::default(),
+    };
     let mut method = "xpbd".to_string();
     let mut stiffness = 1.0f32;
     while let Some(flag) = args.next() {
@@ -52,6 +57,7 @@ fn run() -> Result<(), String> {
             "--auto-substeps" => settings.auto_substeps = true,
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
+            "--self-collision" => settings.self_collision = true,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -141,7 +147,30 @@ fn run() -> Result<(), String> {
             );
             Ok(())
         }
-        other => Err(format!("unknown scene {other} (s1, s2)")),
+        "drop" => {
+            let scene = SheetDrop { n };
+            let mut all_frames = Vec::new();
+            let mut last: Option<SheetDropRun> = None;
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames);
+                all_frames.extend_from_slice(&run.frame_seconds);
+                last = Some(run);
+            }
+            let run = last.expect("at least one run");
+            println!(
+                "{{\"scene\":\"drop\",\"n\":{n},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"max_strain\":{:.6},\"finite\":{}}}",
+                settings.self_collision,
+                settings.substeps,
+                settings.iterations,
+                median(&all_frames) * 1e3,
+                run.closest_gap,
+                run.sim.self_contact_count(),
+                run.max_strain,
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!("unknown scene {other} (s1, s2, drop)")),
     }
 }
 

@@ -109,7 +109,8 @@ pub struct SolverSettings {
     pub damping_mode: DampingMode,
     /// Distance kept between particles and planes, metres. Default: `0.005`.
     pub thickness: f32,
-    /// Coulomb friction coefficient against planes. Default: `0.5`.
+    /// Coulomb friction coefficient against planes and between layers of the cloth
+    /// ([`SolverSettings::self_collision`]). Default: `0.5`.
     pub friction: f32,
     /// Long-range constraints that keep an inextensible cloth from stretching at a small
     /// substep count: tethers from every free particle to its nearest pinned particles (Kim,
@@ -129,6 +130,10 @@ pub struct SolverSettings {
     /// above `substeps` as far as the explicit stability bound needs
     /// ([`crate::cloth::mass_spring`]). Default: `false`.
     pub auto_substeps: bool,
+    /// Keep particles of the cloth that share no edge at least the mean structural rest length
+    /// apart ([`crate::cloth::self_collision`]), so the cloth does not pass through itself.
+    /// Default: `false`.
+    pub self_collision: bool,
 }
 
 impl Default for SolverSettings {
@@ -147,6 +152,7 @@ impl Default for SolverSettings {
             isometric_bending: true,
             springs: SpringSettings::default(),
             auto_substeps: false,
+            self_collision: false,
         }
     }
 }

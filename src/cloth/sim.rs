@@ -10,6 +10,7 @@ use super::isometric_bending::{IsometricPair, project_isometric};
 use super::mass_spring::{SpringSet, auto_substeps};
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
+use super::self_collision::SelfCollision;
 use super::settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
@@ -203,6 +204,9 @@ pub struct ClothSim {
     contacts: ContactScratch,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
+    /// Built the first time a step asks for self-collision.
+    self_collision: Option<SelfCollision>,
+    self_contacts: usize,
 }
 
 impl ClothSim {
@@ -258,6 +262,8 @@ impl ClothSim {
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
             drag: None,
+            self_collision: None,
+            self_contacts: 0,
         }
     }
 
@@ -553,6 +559,10 @@ impl ClothSim {
         if !(dt > 0.0 && dt.is_finite()) {
             return;
         }
+        self.self_contacts = 0;
+        if settings.self_collision {
+            self.find_self_contacts(acceleration, dt);
+        }
         match settings.method {
             SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
                 self.step_constraints(settings, acceleration, dt)
@@ -659,6 +669,16 @@ impl ClothSim {
                     self.contacts
                         .project(colliders, x, v, w, a * h, settings.thickness);
                 }
+                if let Some(sc) = self
+                    .self_collision
+                    .as_ref()
+                    .filter(|_| settings.self_collision)
+                {
+                    let touching = sc.project(x, x_prev, w, settings.friction, None);
+                    if iteration + 1 == iterations {
+                        self.self_contacts = self.self_contacts.max(touching);
+                    }
+                }
             }
 
             // 3. Velocities: v = (x - x_prev) / h + h/2 a, computed as v + h a + (x - x_pred) / h
@@ -750,6 +770,11 @@ impl ClothSim {
         self.contacts
             .begin_step(colliders, x.len(), settings.thickness);
         let bounce_threshold = 2.0 * a.length() * h;
+        let self_collision = self
+            .self_collision
+            .as_ref()
+            .filter(|_| settings.self_collision);
+        let mut self_contacts = 0;
 
         for s in 0..substeps {
             springs.forces.fill(Vec3A::ZERO);
@@ -793,6 +818,10 @@ impl ClothSim {
                         self.contacts
                             .project(colliders, x, v, w, Vec3A::ZERO, settings.thickness);
                     }
+                    if let Some(sc) = self_collision {
+                        self_contacts =
+                            self_contacts.max(sc.project(x, x_prev, w, settings.friction, None));
+                    }
                 }
                 for i in 0..x.len() {
                     v[i] = (x[i] - x_prev[i]) * inv_h;
@@ -814,6 +843,16 @@ impl ClothSim {
                     self.contacts
                         .project(colliders, x, v, w, Vec3A::ZERO, settings.thickness);
                 }
+                if let Some(sc) = self_collision {
+                    // Discrete: the correction also changes the velocity.
+                    self_contacts = self_contacts.max(sc.project(
+                        x,
+                        x_prev,
+                        w,
+                        settings.friction,
+                        Some((v, inv_h)),
+                    ));
+                }
             }
             if !colliders.is_empty() {
                 self.contacts.respond(
@@ -828,6 +867,40 @@ impl ClothSim {
             }
             damp(settings, damping_k, x, v, w);
         }
+        self.self_contacts = self_contacts;
+    }
+
+    /// Finds the self-contact candidates of the coming step (building the tables the first
+    /// time): pairs that may close in to the self-collision distance within `dt`.
+    fn find_self_contacts(&mut self, acceleration: Vec3, dt: f32) {
+        if self.self_collision.is_none() {
+            self.self_collision = SelfCollision::new(&self.model, None);
+        }
+        let Some(sc) = self.self_collision.as_mut() else {
+            return;
+        };
+        let x = &self.state.positions;
+        let v = &self.state.velocities;
+        let max_speed = v
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(0.0f32, f32::max)
+            .sqrt();
+        // Two particles close in at most twice the fastest particle's travel.
+        let travel = max_speed * dt + 0.5 * acceleration.length() * dt * dt;
+        sc.find_pairs(x, 2.0 * travel);
+    }
+
+    /// The self-collision tables, once a step has run with
+    /// [`SolverSettings::self_collision`] on.
+    pub fn self_collision(&self) -> Option<&SelfCollision> {
+        self.self_collision.as_ref()
+    }
+
+    /// How many pairs of particles were held apart by self-collision in the last step's last
+    /// iteration (the most in any substep).
+    pub fn self_contact_count(&self) -> usize {
+        self.self_contacts
     }
 
     /// Strain `|len - rest| / rest` over the structural edges.

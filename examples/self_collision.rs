@@ -1,0 +1,116 @@
+//! Self-collision: two soft sheets dropped edge-first onto the ground side by side. They pile
+//! up in folds; the left one has self-collision off and its folds pass through each other, the
+//! right one keeps its layers apart. The labels count the pairs of particles held apart.
+//!
+//! ```text
+//! cargo run --features render --example self_collision
+//! ```
+//!
+//! R drops the sheets again, P pauses; drag a sheet with the left mouse button, orbit with the
+//! right one, scroll to zoom.
+
+mod common;
+
+use bevy::prelude::*;
+use bevy_drape::prelude::*;
+use bevy_drape::scenes::SheetDrop;
+use common::{ExamplePlugin, cloth_material, spawn_stage};
+
+const N: u32 = 32;
+
+fn main() {
+    App::new()
+        .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
+        .add_systems(Startup, setup)
+        .add_systems(Update, (keys, labels))
+        .run();
+}
+
+/// Which sheet a label reads.
+#[derive(Component)]
+struct Label(Entity);
+
+fn setup(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    spawn_stage(
+        &mut commands,
+        &mut meshes,
+        &mut materials,
+        Vec3::new(0.0, 0.05, 0.35),
+        2.3,
+    );
+    let scene = SheetDrop { n: N };
+    commands.spawn((
+        ClothCollider::plane()
+            .with_friction(SheetDrop::FRICTION)
+            .with_margin(0.0),
+        Transform::default(),
+    ));
+    let sheet = meshes.add(grid_mesh(&scene.grid()));
+    let row = commands
+        .spawn(Node {
+            width: Val::Percent(100.0),
+            padding: UiRect::all(Val::Px(12.0)),
+            justify_content: JustifyContent::SpaceAround,
+            ..default()
+        })
+        .id();
+    for (x, on, colour) in [
+        (-1.25, false, Color::srgb(0.8, 0.3, 0.2)),
+        (0.25, true, Color::srgb(0.2, 0.5, 0.8)),
+    ] {
+        let cloth = commands
+            .spawn((
+                Mesh3d(sheet.clone()),
+                MeshMaterial3d(cloth_material(&mut materials, colour)),
+                Cloth::default(),
+                ClothSettings {
+                    solver: SheetDrop::settings(on),
+                    ..default()
+                },
+                Transform::from_xyz(x, 0.0, 0.0),
+            ))
+            .id();
+        commands.spawn((
+            Text::new(""),
+            TextFont::from_font_size(FontSize::Px(18.0)),
+            Label(cloth),
+            ChildOf(row),
+        ));
+    }
+}
+
+fn labels(
+    cloths: Query<(&ClothSettings, Option<&ClothSimulation>)>,
+    mut texts: Query<(&Label, &mut Text)>,
+) {
+    for (label, mut text) in &mut texts {
+        let Ok((settings, simulation)) = cloths.get(label.0) else {
+            continue;
+        };
+        let contacts = simulation.map_or(0, |s| s.sim().self_contact_count());
+        text.0 = if settings.solver.self_collision {
+            format!("self-collision on: {contacts} pairs held apart")
+        } else {
+            "self-collision off".to_string()
+        };
+    }
+}
+
+fn keys(
+    input: Res<ButtonInput<KeyCode>>,
+    mut drape: ResMut<DrapeSettings>,
+    mut cloths: Query<&mut ClothSimulation>,
+) {
+    if input.just_pressed(KeyCode::KeyP) {
+        drape.paused = !drape.paused;
+    }
+    if input.just_pressed(KeyCode::KeyR) {
+        for mut cloth in &mut cloths {
+            cloth.sim_mut().reset();
+        }
+    }
+}
