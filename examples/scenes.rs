@@ -1,7 +1,7 @@
 //! Runs a standard scene headless and prints one JSON line.
 //!
 //! ```text
-//! cargo run --release --example scenes -- s1|s2|drop --n 64 [--substeps 8] [--iterations 1]
+//! cargo run --release --example scenes -- s1|s2|s3|drop --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
@@ -14,7 +14,8 @@
 //! `ms_per_frame` is the median over all frames of all runs (model build excluded); the other
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
-use bevy_drape::cloth::{SolverMethod, SolverSettings};
+use bevy_drape::cloth::{PonchoDesc, SolverMethod, SolverSettings};
+use bevy_drape::poncho::{PonchoScene, PonchoSource, run_headless};
 use bevy_drape::scenes::{
     Drape, DrapeRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
 };
@@ -28,14 +29,17 @@ fn main() {
 
 fn run() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
-    let scene = args.next().ok_or("missing scene name (s1, s2, drop)")?;
+    let scene = args.next().ok_or("missing scene name (s1, s2, s3, drop)")?;
     let mut n = 32u32;
     let mut runs = 3u32;
-    let mut frames = 120u32;
+    let mut frames: Option<u32> = None;
     let mut settings = match scene.as_str() {
         "drop" => SheetDrop::settings(false),
+        "s3" => PonchoScene::default().solver,
         _ => SolverSettings::default(),
     };
+    let mut wave = true;
+    let n_given = std::env::args().any(|a| a == "--n");
     let mut method = "xpbd".to_string();
     let mut stiffness = 1.0f32;
     while let Some(flag) = args.next() {
@@ -43,7 +47,7 @@ fn run() -> Result<(), String> {
         match flag.as_str() {
             "--n" => n = parse(&value()?)?,
             "--runs" => runs = parse(&value()?)?,
-            "--frames" => frames = parse(&value()?)?,
+            "--frames" => frames = Some(parse(&value()?)?),
             "--substeps" => settings.substeps = parse(&value()?)?,
             "--iterations" => settings.iterations = parse(&value()?)?,
             "--stretch-compliance" => settings.stretch_compliance = parse(&value()?)?,
@@ -58,6 +62,8 @@ fn run() -> Result<(), String> {
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
             "--self-collision" => settings.self_collision = true,
+            "--no-self-collision" => settings.self_collision = false,
+            "--no-wave" => wave = false,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -73,6 +79,7 @@ fn run() -> Result<(), String> {
         }
     };
     settings.validate().map_err(|e| e.to_string())?;
+    let frames = frames.unwrap_or(if scene == "s3" { 600 } else { 120 });
     if n < 2 {
         return Err("--n must be at least 2".into());
     }
@@ -170,7 +177,48 @@ fn run() -> Result<(), String> {
             );
             Ok(())
         }
-        other => Err(format!("unknown scene {other} (s1, s2, drop)")),
+        "s3" => {
+            let mut scene = PonchoScene {
+                solver: settings,
+                wave,
+                ..PonchoScene::default()
+            };
+            if n_given {
+                scene.source = PonchoSource::Pattern(PonchoDesc {
+                    vertices: n,
+                    ..PonchoDesc::default()
+                });
+            } else {
+                // Run from the repository root, where the assets are.
+                scene.source = PonchoSource::Asset("meshes/poncho.obj".into());
+            }
+            let run = run_headless(scene, frames);
+            if run.particles == 0 {
+                return Err(
+                    "the poncho was not built (is the working directory the repository root?)"
+                        .into(),
+                );
+            }
+            println!(
+                "{{\"scene\":\"s3\",\"particles\":{},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"max_centroid_offset\":{:.4},\"finite\":{}}}",
+                run.particles,
+                settings.self_collision,
+                settings.substeps,
+                settings.iterations,
+                run.steps,
+                run.median_ms(4),
+                run.median_ms(0),
+                run.median_ms(1),
+                run.median_ms(2),
+                run.median_ms(3),
+                run.deepest_penetration,
+                run.max_strain,
+                run.max_centroid_offset,
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!("unknown scene {other} (s1, s2, s3, drop)")),
     }
 }
 

@@ -10,6 +10,9 @@ use thiserror::Error;
 /// Why a cloth could not be built or changed.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ClothError {
+    /// A garment pattern's dimensions make no garment.
+    #[error("invalid pattern: {0}")]
+    InvalidPattern(String),
     /// The mesh has no (non-degenerate) triangles.
     #[error("the mesh has no usable triangles")]
     NoTriangles,

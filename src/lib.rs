@@ -8,6 +8,7 @@ pub use bevy_obj;
 pub mod collide;
 pub mod error;
 pub mod interact;
+pub mod poncho;
 pub mod scenes;
 pub mod schedule;
 pub mod skeleton;
@@ -41,13 +42,13 @@ pub mod prelude {
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError};
     pub use crate::interact::colors::DebugColorMode;
-    pub use crate::schedule::DrapeSystems;
+    pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
-    pub use crate::skeleton::humanoid::humanoid;
+    pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};
     pub use crate::skeleton::ik::{IkChain, IkError, IkResult, IkSettings};
     pub use crate::skeleton::plugin::{
-        BoneEntity, ClipAsset, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
-        SkeletonBones, SkeletonPlugin, SkeletonPose,
+        BoneColliders, BoneEntity, BoneProxyOf, ClipAsset, ClipPlayer, IkGoal, IkTarget,
+        InverseKinematics, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
     };
     pub use crate::skeleton::rig::{BoneDesc, Rig, RigError};
 }

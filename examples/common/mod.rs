@@ -154,9 +154,10 @@ pub fn cloth_material(
     })
 }
 
-/// Rigid body parts for the humanoid's bones (see `bevy_drape::skeleton::humanoid`): capsules
-/// for the limbs and torso, spheres for the head and hands, boxes for the feet, each a child of
-/// its bone entity. Add as an `Update` system; it dresses every skeleton once.
+/// Rigid body parts for the humanoid's bones: the collision proxies themselves
+/// (`bevy_drape::skeleton::humanoid::humanoid_proxies`, capsules and spheres) and boxes for
+/// the feet, each a child of its bone entity, so what you see is what the cloth touches. Add
+/// as an `Update` system; it dresses every skeleton once.
 #[allow(dead_code)]
 pub fn dress_humanoids(
     mut commands: Commands,
@@ -167,7 +168,6 @@ pub fn dress_humanoids(
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    use bevy_drape::skeleton::humanoid::radius;
     for bones in &skeletons {
         // The library has no renderer, so its bone entities carry no visibility; the meshes
         // hung from them need it up the hierarchy.
@@ -180,88 +180,43 @@ pub fn dress_humanoids(
             ..default()
         });
         let dark = materials.add(Color::srgb(0.2, 0.22, 0.28));
-        // (bone, mesh, centre in the bone's frame, material is dark)
-        let mut parts: Vec<(String, Mesh, Vec3, bool)> = vec![
-            (
-                "pelvis".into(),
-                Capsule3d::new(0.11, 0.1).mesh().into(),
-                Vec3::new(0.0, 0.0, 0.0),
-                true,
-            ),
-            (
-                "chest".into(),
-                Capsule3d::new(radius::TORSO, 0.12).mesh().into(),
-                Vec3::new(0.0, 0.08, 0.0),
-                false,
-            ),
-            (
-                "spine".into(),
-                Capsule3d::new(0.12, 0.05).mesh().into(),
-                Vec3::new(0.0, 0.05, 0.0),
-                false,
-            ),
-            (
-                "neck".into(),
-                Capsule3d::new(0.045, 0.06).mesh().into(),
-                Vec3::new(0.0, 0.04, 0.0),
-                false,
-            ),
-            (
-                "head".into(),
-                Sphere::new(radius::HEAD).mesh().into(),
-                Vec3::new(0.0, 0.1, 0.0),
-                false,
-            ),
-        ];
+        let is_dark = |bone: &str| {
+            bone == "pelvis"
+                || bone.starts_with("thigh")
+                || bone.starts_with("shin")
+                || bone.starts_with("foot")
+        };
+        let mut parts: Vec<(String, Mesh, Transform)> = bevy_drape::prelude::humanoid_proxies()
+            .into_iter()
+            .map(|p| {
+                let mesh: Mesh = if p.half_length > 0.0 {
+                    Capsule3d::new(p.radius, 2.0 * p.half_length).mesh().into()
+                } else {
+                    Sphere::new(p.radius).mesh().into()
+                };
+                let at = Transform::from_translation(p.centre).with_rotation(p.rotation());
+                (p.bone, mesh, at)
+            })
+            .collect();
         for side in ["l", "r"] {
-            let n = |b: &str| format!("{b}_{side}");
-            parts.extend([
-                (
-                    n("upper_arm"),
-                    Capsule3d::new(radius::ARM, 0.19).mesh().into(),
-                    Vec3::new(0.0, -0.14, 0.0),
-                    false,
-                ),
-                (
-                    n("forearm"),
-                    Capsule3d::new(radius::ARM * 0.9, 0.17).mesh().into(),
-                    Vec3::new(0.0, -0.125, 0.0),
-                    false,
-                ),
-                (
-                    n("hand"),
-                    Sphere::new(0.045).mesh().into(),
-                    Vec3::new(0.0, -0.05, 0.0),
-                    false,
-                ),
-                (
-                    n("thigh"),
-                    Capsule3d::new(radius::THIGH, 0.28).mesh().into(),
-                    Vec3::new(0.0, -0.21, 0.0),
-                    true,
-                ),
-                (
-                    n("shin"),
-                    Capsule3d::new(radius::SHIN, 0.31).mesh().into(),
-                    Vec3::new(0.0, -0.21, 0.0),
-                    true,
-                ),
-                (
-                    n("foot"),
-                    Cuboid::new(0.09, 0.05, 0.22).mesh().into(),
-                    Vec3::new(0.0, -0.015, 0.05),
-                    true,
-                ),
-            ]);
+            parts.push((
+                format!("foot_{side}"),
+                Cuboid::new(0.09, 0.05, 0.22).mesh().into(),
+                Transform::from_xyz(0.0, -0.015, 0.05),
+            ));
         }
-        for (bone, mesh, centre, is_dark) in parts {
+        for (bone, mesh, at) in parts {
             let Some(entity) = bones.get(&bone) else {
                 continue;
             };
             commands.spawn((
                 Mesh3d(meshes.add(mesh)),
-                MeshMaterial3d(if is_dark { dark.clone() } else { skin.clone() }),
-                Transform::from_translation(centre),
+                MeshMaterial3d(if is_dark(&bone) {
+                    dark.clone()
+                } else {
+                    skin.clone()
+                }),
+                at,
                 ChildOf(entity),
             ));
         }

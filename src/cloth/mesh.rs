@@ -5,7 +5,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 
-use super::model::GridDesc;
+use super::model::{GridDesc, GridMesh};
 use crate::error::ClothError;
 
 /// The vertex positions and triangle indices of a triangle-list mesh.
@@ -45,6 +45,28 @@ pub fn grid_mesh(desc: &GridDesc) -> Mesh {
     .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, grid.uvs)
     .with_inserted_indices(Indices::U32(grid.indices))
+}
+
+/// A [`GridMesh`] (a grid or a garment pattern) as a mesh with positions, normals, texture
+/// coordinates and indices, kept in the main world so the cloth can write into it.
+pub fn grid_mesh_from(grid: &GridMesh) -> Mesh {
+    let positions: Vec<[f32; 3]> = grid.positions.iter().map(|p| p.to_array()).collect();
+    let triangles: Vec<[u32; 3]> = grid
+        .indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    let mut normals = Vec::new();
+    compute_normals(&positions, &triangles, &mut normals);
+    let normals: Vec<[f32; 3]> = normals.iter().map(|n| n.to_array()).collect();
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, grid.uvs.clone())
+    .with_inserted_indices(Indices::U32(grid.indices.clone()))
 }
 
 /// Area-weighted vertex normals of `triangles` over `positions`, written into `normals`

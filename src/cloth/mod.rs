@@ -3,6 +3,7 @@
 
 pub mod constraints;
 pub mod damping;
+pub mod garment;
 pub mod isometric_bending;
 pub mod mass_spring;
 pub mod mesh;
@@ -16,6 +17,7 @@ pub mod state;
 pub mod stretch_limits;
 
 pub use constraints::{Plane, Tether};
+pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSet, SpringSettings};
 pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use self_collision::{SelfCollision, SelfContactPair};

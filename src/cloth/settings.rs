@@ -115,8 +115,10 @@ pub struct SolverSettings {
     /// Long-range constraints that keep an inextensible cloth from stretching at a small
     /// substep count: tethers from every free particle to its nearest pinned particles (Kim,
     /// Chentanez and Mueller 2012) and stretch limits along the straight lines of the rest
-    /// shape ([`crate::cloth::stretch_limits`]). Both only refuse lengthening beyond the rest
-    /// shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). Default:
+    /// shape ([`crate::cloth::stretch_limits`]), and, on a cloth with colliders, tethers from
+    /// every free particle to the nearest particle a collider holds (rebuilt every step; see
+    /// [`crate::cloth::ClothSim::contact_tethers`]). All only refuse lengthening beyond the
+    /// rest shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). Default:
     /// `true`.
     pub long_range_attachments: bool,
     /// Bend pairs whose rest shape is flat with the isometric model

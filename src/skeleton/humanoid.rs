@@ -20,6 +20,8 @@
 //! neck 0.22, head 0.1, shoulders 0.18 out and 0.18 up from the chest, upper arms 0.28,
 //! forearms 0.25. The pelvis stands 0.93 m above the soles at rest.
 
+use bevy::math::{Quat, Vec3};
+
 use super::rig::{BoneDesc, Rig};
 
 /// Limb radii for collision proxies and meshes, metres.
@@ -182,4 +184,85 @@ mod tests {
         let foot = out[rig.find("foot_l").unwrap()].translation;
         assert!((foot.y + PELVIS_HEIGHT - 0.04).abs() < 1e-6, "{foot}");
     }
+}
+
+/// A collision proxy on a bone: a capsule (a sphere when `half_length` is 0) in the bone's
+/// frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoneProxy {
+    /// The bone's name.
+    pub bone: String,
+    /// Radius, metres.
+    pub radius: f32,
+    /// Half the length of the capsule's axis segment, metres (0 for a sphere).
+    pub half_length: f32,
+    /// The capsule's centre in the bone's frame.
+    pub centre: Vec3,
+    /// The direction of the capsule's axis in the bone's frame.
+    pub axis: Vec3,
+}
+
+impl BoneProxy {
+    /// The proxy's rotation in the bone's frame: local Y (the capsule axis) onto `axis`.
+    pub fn rotation(&self) -> Quat {
+        Quat::from_rotation_arc(Vec3::Y, self.axis.normalize_or(Vec3::Y))
+    }
+}
+
+/// The humanoid's collision proxies: capsules on the pelvis, spine, chest, across the
+/// shoulders, on the neck, arms and legs, spheres on the head and hands. No feet: cloth does
+/// not reach them. The examples draw the body with these same shapes.
+pub fn humanoid_proxies() -> Vec<BoneProxy> {
+    let capsule =
+        |bone: &str, radius: f32, half_length: f32, centre: [f32; 3], axis: Vec3| BoneProxy {
+            bone: bone.into(),
+            radius,
+            half_length,
+            centre: centre.into(),
+            axis,
+        };
+    let mut proxies = vec![
+        capsule("pelvis", 0.11, 0.05, [0.0, 0.0, 0.0], Vec3::Y),
+        capsule("spine", 0.12, 0.025, [0.0, 0.05, 0.0], Vec3::Y),
+        capsule("chest", radius::TORSO, 0.06, [0.0, 0.08, 0.0], Vec3::Y),
+        // From one shoulder joint to the other, so cloth rests on the shoulders.
+        capsule("chest", 0.06, 0.16, [0.0, 0.17, 0.0], Vec3::X),
+        capsule("neck", 0.045, 0.03, [0.0, 0.04, 0.0], Vec3::Y),
+        capsule("head", radius::HEAD, 0.0, [0.0, 0.1, 0.0], Vec3::Y),
+    ];
+    for side in ["l", "r"] {
+        let name = |n: &str| format!("{n}_{side}");
+        proxies.extend([
+            capsule(
+                &name("upper_arm"),
+                radius::ARM,
+                0.095,
+                [0.0, -0.14, 0.0],
+                Vec3::Y,
+            ),
+            capsule(
+                &name("forearm"),
+                radius::ARM * 0.9,
+                0.085,
+                [0.0, -0.125, 0.0],
+                Vec3::Y,
+            ),
+            capsule(&name("hand"), 0.045, 0.0, [0.0, -0.05, 0.0], Vec3::Y),
+            capsule(
+                &name("thigh"),
+                radius::THIGH,
+                0.14,
+                [0.0, -0.21, 0.0],
+                Vec3::Y,
+            ),
+            capsule(
+                &name("shin"),
+                radius::SHIN,
+                0.155,
+                [0.0, -0.21, 0.0],
+                Vec3::Y,
+            ),
+        ]);
+    }
+    proxies
 }

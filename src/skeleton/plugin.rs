@@ -17,9 +17,11 @@ use bevy::transform::TransformSystems;
 use bevy::transform::helper::TransformHelper;
 
 use super::clip::{Clip, ClipDesc, ClipError};
+use super::humanoid::{BoneProxy, humanoid_proxies};
 use super::ik::{IkChain, IkError, IkResult, IkScratch, IkSettings, solve};
 use super::rig::{BoneState, Pose, PoseRate, Rig};
-use crate::collide::plugin::AnimatedVelocity;
+use crate::collide::ContactMaterial;
+use crate::collide::plugin::{AnimatedVelocity, ClothCollider};
 use crate::schedule::DrapeSystems;
 
 /// A clip file, as loaded; bound to a rig when a [`ClipPlayer`] plays it.
@@ -71,6 +73,40 @@ pub struct Skeleton {
     /// The rig.
     pub rig: Arc<Rig>,
 }
+
+/// Collision proxies for the cloth on the bones of the [`Skeleton`] of the same entity: when
+/// the bones are spawned, each proxy becomes a [`ClothCollider`] capsule (or sphere) on a
+/// child entity of its bone, moving with it and taking its velocity from the joints'
+/// ([`AnimatedVelocity`]). A proxy naming a bone the rig does not have is skipped with a
+/// warning naming the entity.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct BoneColliders {
+    /// The proxies.
+    pub proxies: Vec<BoneProxy>,
+    /// Friction and restitution of every proxy.
+    pub material: ContactMaterial,
+    /// Margin of every proxy, metres.
+    pub margin: f32,
+}
+
+impl BoneColliders {
+    /// The humanoid's proxies ([`humanoid_proxies`]) with friction 0.6, no restitution and a
+    /// 5 mm margin.
+    pub fn humanoid() -> Self {
+        Self {
+            proxies: humanoid_proxies(),
+            material: ContactMaterial {
+                friction: 0.6,
+                restitution: 0.0,
+            },
+            margin: 0.005,
+        }
+    }
+}
+
+/// Marks an entity spawned for a [`BoneColliders`] proxy.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct BoneProxyOf(pub Entity);
 
 /// Plays a clip on the [`Skeleton`] of the same entity.
 #[derive(Component, Clone, Debug)]
@@ -193,9 +229,9 @@ fn local_transform(rig: &Rig, bone: usize, pose: &Pose) -> Transform {
 /// Spawns the bone entities of every new skeleton, in its rest pose.
 fn spawn_bones(
     mut commands: Commands,
-    skeletons: Query<(Entity, &Skeleton), Without<SkeletonBones>>,
+    skeletons: Query<(Entity, &Skeleton, Option<&BoneColliders>), Without<SkeletonBones>>,
 ) {
-    for (entity, skeleton) in &skeletons {
+    for (entity, skeleton, proxies) in &skeletons {
         let rig = &skeleton.rig;
         let pose = rig.rest_pose();
         let mut entities: Vec<Entity> = Vec::with_capacity(rig.bones().len());
@@ -216,6 +252,26 @@ fn spawn_bones(
                 ))
                 .id();
             entities.push(id);
+        }
+        for proxy in proxies.map_or(&[][..], |p| &p.proxies[..]) {
+            let settings = proxies.expect("proxies come from a BoneColliders");
+            let Some(bone) = rig.find(&proxy.bone) else {
+                warn!(
+                    "skeleton {entity}: collision proxy on bone {:?}, which the rig does not have",
+                    proxy.bone
+                );
+                continue;
+            };
+            let mut collider = ClothCollider::capsule(proxy.radius, proxy.half_length);
+            collider.material = settings.material;
+            collider.margin = settings.margin;
+            commands.spawn((
+                Name::new(format!("{} proxy", proxy.bone)),
+                collider,
+                Transform::from_translation(proxy.centre).with_rotation(proxy.rotation()),
+                BoneProxyOf(entity),
+                ChildOf(entities[bone]),
+            ));
         }
         let mut bones = Vec::new();
         rig.forward(&pose, None, &mut bones);
