@@ -6,6 +6,10 @@
 //! cargo run --release --features render --example poncho
 //! ```
 //!
+//! With no display (no `DISPLAY` or `WAYLAND_DISPLAY`) it renders offscreen into a few PNG
+//! frames (see `examples/common/offscreen.rs` for where and how many), then prints the scene's
+//! S3 figures.
+//!
 //! W toggles the wave, S self-collision, R resets the poncho, P pauses, C cycles the debug
 //! colours; drag the poncho with the left mouse button, orbit with the right one, scroll to
 //! zoom.
@@ -13,22 +17,40 @@
 mod common;
 
 use bevy::prelude::*;
-use bevy_drape::poncho::{Poncho, PonchoScene, PonchoScenePlugin};
+use bevy_drape::poncho::{Poncho, PonchoScene, PonchoScenePlugin, run_headless};
 use bevy_drape::prelude::*;
+use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, cloth_material, dress_humanoids, spawn_stage};
 
 fn main() {
-    App::new()
-        .add_plugins((
-            DefaultPlugins,
-            DrapePlugins::default(),
-            PonchoScenePlugin,
-            ExamplePlugin,
-        ))
+    let mut app = App::new();
+    let windowed = has_display();
+    if windowed {
+        app.add_plugins((DefaultPlugins, ExamplePlugin));
+    } else {
+        println!("no display: rendering offscreen");
+        app.add_plugins((
+            headless_default_plugins(),
+            OffscreenPlugin::from_env("poncho"),
+        ));
+    }
+    app.add_plugins((DrapePlugins::default(), PonchoScenePlugin))
         .insert_resource(Time::<Fixed>::from_hz(60.0))
         .add_systems(Startup, setup)
-        .add_systems(Update, (dress_humanoids, dress_poncho, keys, label))
-        .run();
+        .add_systems(Update, (dress_humanoids, dress_poncho, keys, label));
+    app.run();
+    if !windowed {
+        print_s3_figures();
+    }
+}
+
+/// Runs the scene headless for 10 s and prints its S3 figures (as `cargo run --release
+/// --example scenes -- s3` does).
+fn print_s3_figures() {
+    let scene = PonchoScene::default();
+    let solver = scene.solver;
+    let run = run_headless(scene, 600);
+    println!("S3 (10 s headless): {}", run.json(&solver));
 }
 
 #[derive(Component)]
@@ -43,16 +65,16 @@ fn setup(
         &mut commands,
         &mut meshes,
         &mut materials,
-        Vec3::new(0.0, 1.05, 0.0),
-        3.0,
+        Vec3::new(0.0, 1.0, 0.0),
+        2.4,
     );
     commands.spawn((
         Text::new(""),
         TextFont::from_font_size(FontSize::Px(16.0)),
         Node {
             position_type: PositionType::Absolute,
-            top: Val::Px(10.0),
-            left: Val::Px(10.0),
+            bottom: Val::Px(10.0),
+            right: Val::Px(10.0),
             ..default()
         },
         Label,

@@ -199,23 +199,7 @@ fn run() -> Result<(), String> {
                         .into(),
                 );
             }
-            println!(
-                "{{\"scene\":\"s3\",\"particles\":{},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"max_centroid_offset\":{:.4},\"finite\":{}}}",
-                run.particles,
-                settings.self_collision,
-                settings.substeps,
-                settings.iterations,
-                run.steps,
-                run.median_ms(4),
-                run.median_ms(0),
-                run.median_ms(1),
-                run.median_ms(2),
-                run.median_ms(3),
-                run.deepest_penetration,
-                run.max_strain,
-                run.max_centroid_offset,
-                run.finite
-            );
+            println!("{}", run.json(&settings));
             Ok(())
         }
         other => Err(format!("unknown scene {other} (s1, s2, s3, drop)")),

@@ -234,6 +234,29 @@ pub struct PonchoRun {
 }
 
 impl PonchoRun {
+    /// The run's figures as one JSON object (the `scenes` runner's `s3` line), with the
+    /// solver settings it ran with.
+    pub fn json(&self, solver: &SolverSettings) -> String {
+        format!(
+            "{{\"scene\":\"s3\",\"particles\":{},\"method\":\"{}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"max_centroid_offset\":{:.4},\"finite\":{}}}",
+            self.particles,
+            solver.method.name(),
+            solver.self_collision,
+            solver.substeps,
+            solver.iterations,
+            self.steps,
+            self.median_ms(4),
+            self.median_ms(0),
+            self.median_ms(1),
+            self.median_ms(2),
+            self.median_ms(3),
+            self.deepest_penetration,
+            self.max_strain,
+            self.max_centroid_offset,
+            self.finite
+        )
+    }
+
     /// The median of one stage's times (`0..4`, see [`PonchoRun::stage_ms`]), or of the whole
     /// step (`4`), milliseconds.
     pub fn median_ms(&self, stage: usize) -> f64 {

@@ -496,3 +496,28 @@ fn isometric_and_dihedral_bending_hold_a_cantilever_alike() {
         );
     }
 }
+
+#[test]
+fn a_falling_particle_keeps_its_kinetic_plus_potential_energy() {
+    // Thrown up and sideways from 1 m: E = m v^2 / 2 + m g y, constant along the parabola.
+    let model = ClothModel::from_particles(&[Vec3::Y], &[2.0], &[]).unwrap();
+    let mut sim = ClothSim::new(model);
+    sim.state_mut().velocities[0] = Vec3::new(1.0, 3.0, 0.0).into();
+    let settings = undamped(8, 1);
+    let energy = |sim: &ClothSim| sim.kinetic_energy() + sim.potential_energy(GRAVITY);
+    let start = energy(&sim);
+    assert!(
+        (start - (0.5 * 2.0 * 10.0 + 2.0 * 9.81 * 1.0)).abs() < 1e-4,
+        "{start}"
+    );
+    for _ in 0..60 {
+        sim.step(&settings, GRAVITY, DT);
+        // The velocity is the end-of-step one, so the sum holds to rounding.
+        assert!(
+            (energy(&sim) - start).abs() < 1e-3 * start,
+            "{} vs {start}",
+            energy(&sim)
+        );
+    }
+    assert!(sim.state().positions[0].y < 1.0, "it came down again");
+}

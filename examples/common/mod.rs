@@ -6,6 +6,9 @@
 //! - `DRAPE_FRAMES=N`: after N rendered frames, save a screenshot and exit;
 //! - `DRAPE_SCREENSHOT=path.png`: where to save it (default `screenshot.png`).
 
+#[allow(dead_code)]
+pub mod offscreen;
+
 use bevy::app::AppExit;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
 use bevy::prelude::*;
@@ -25,8 +28,14 @@ impl Plugin for ExamplePlugin {
             path,
             frame: 0,
         })
-        .add_plugins(bevy_drape::interact::drag::ClothDragPlugin)
+        .add_plugins((
+            bevy_drape::interact::drag::ClothDragPlugin,
+            bevy_drape::interact::gizmos::ColliderGizmoPlugin,
+        ))
         .add_systems(Update, (orbit_camera, smoke_run, cycle_debug_colors));
+        // The settings panel, with `--features egui`.
+        #[cfg(feature = "egui")]
+        app.add_plugins(bevy_drape::interact::panel::DrapePanelPlugin);
     }
 }
 
@@ -62,11 +71,16 @@ fn orbit_camera(
 ) {
     for (mut orbit, mut transform) in &mut cameras {
         // The left button drags cloth when it is pressed on one (and turns the view when not).
-        if buttons.any_pressed([MouseButton::Left, MouseButton::Right]) && !drag.is_active() {
+        if buttons.any_pressed([MouseButton::Left, MouseButton::Right])
+            && !drag.is_active()
+            && !drag.pointer_over_ui
+        {
             orbit.yaw -= motion.delta.x * 0.005;
             orbit.pitch = (orbit.pitch + motion.delta.y * 0.005).clamp(-1.5, 1.5);
         }
-        orbit.radius = (orbit.radius * (1.0 - scroll.delta.y * 0.1)).clamp(0.3, 50.0);
+        if !drag.pointer_over_ui {
+            orbit.radius = (orbit.radius * (1.0 - scroll.delta.y * 0.1)).clamp(0.3, 50.0);
+        }
         *transform = orbit.transform();
     }
 }

@@ -1046,6 +1046,19 @@ impl ClothSim {
         )
     }
 
+    /// Gravitational potential energy of the free particles in the field `gravity` (m/s^2),
+    /// zero at the origin, J: `-sum m g . x`.
+    pub fn potential_energy(&self, gravity: Vec3) -> f32 {
+        let g = Vec3A::from(gravity);
+        self.state
+            .positions
+            .iter()
+            .zip(&self.state.inverse_masses)
+            .filter(|&(_, &w)| w > 0.0)
+            .map(|(x, &w)| -g.dot(*x) / w)
+            .sum()
+    }
+
     /// Kinetic energy of the free particles, J.
     pub fn kinetic_energy(&self) -> f32 {
         self.state

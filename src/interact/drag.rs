@@ -16,6 +16,9 @@ use crate::cloth::plugin::ClothSimulation;
 pub struct ClothDrag {
     /// The cloth and particle held, and the point the drag plane goes through.
     pub held: Option<(Entity, u32, Vec3)>,
+    /// The pointer is over a user interface that takes it (set by the `egui` panel): no new
+    /// drag starts.
+    pub pointer_over_ui: bool,
 }
 
 impl ClothDrag {
@@ -66,7 +69,7 @@ fn drag_cloth(
     let Some(ray) = ray else {
         return;
     };
-    if buttons.just_pressed(MouseButton::Left) {
+    if buttons.just_pressed(MouseButton::Left) && !drag.pointer_over_ui {
         // The nearest hit over every cloth, with a pick radius growing with distance.
         let mut best: Option<(Entity, u32, f32)> = None;
         for (entity, simulation) in &cloths {

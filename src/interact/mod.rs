@@ -1,9 +1,15 @@
 //! Interaction: picking cloth particles with a ray ([`pick`]); dragging them is
 //! [`crate::cloth::ClothSim::grab`], [`crate::cloth::ClothSim::drag_to`] and
 //! [`crate::cloth::ClothSim::release`]; with the `render` feature, `drag::ClothDragPlugin`
-//! does it with the mouse; per-vertex debug colours ([`colors`]).
+//! does it with the mouse; per-vertex debug colours ([`colors`]); with `render`, collider
+//! gizmos (`gizmos::ColliderGizmoPlugin`); with `egui`, the settings panel
+//! (`panel::DrapePanelPlugin`).
 
 pub mod colors;
 #[cfg(feature = "render")]
 pub mod drag;
+#[cfg(feature = "render")]
+pub mod gizmos;
+#[cfg(feature = "egui")]
+pub mod panel;
 pub mod pick;

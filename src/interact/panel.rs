@@ -1,0 +1,338 @@
+//! The egui panel (feature `egui`): the selected cloth's solver settings as sliders, the
+//! world's gravity, time scale, pause, single step and reset, live readouts of the fixed
+//! step's cost by stage, strain, energy and contacts, the debug colours and collider gizmos.
+//!
+//! Add [`DrapePanelPlugin`] next to `DefaultPlugins` and [`crate::DrapePlugins`]; the panel
+//! edits the same components and resources a game would ([`ClothSettings`],
+//! [`DrapeSettings`], [`ClothDebugColors`], [`ColliderGizmos`], `Time<Virtual>`), so whatever
+//! it changes behaves as it would from code: a new density recomputes the masses, a new method
+//! keeps the positions.
+
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::*;
+use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
+
+use super::colors::DebugColorMode;
+use super::gizmos::ColliderGizmos;
+use crate::cloth::plugin::{
+    ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings, DrapeSettings,
+};
+use crate::cloth::settings::{DampingMode, SolverMethod};
+use crate::collide::plugin::ClothCollider;
+use crate::schedule::{DrapeSchedule, DrapeTimings};
+
+/// Adds the panel (and `EguiPlugin` if the App has none).
+pub struct DrapePanelPlugin;
+
+impl Plugin for DrapePanelPlugin {
+    fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<EguiPlugin>() {
+            app.add_plugins(EguiPlugin::default());
+        }
+        if !app.is_plugin_added::<super::gizmos::ColliderGizmoPlugin>() {
+            app.add_plugins(super::gizmos::ColliderGizmoPlugin);
+        }
+        app.init_resource::<DrapePanel>()
+            .add_systems(EguiPrimaryContextPass, panel)
+            .add_systems(Last, single_step);
+    }
+}
+
+/// The panel's state.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct DrapePanel {
+    /// The cloth the settings apply to (the first one if none or gone).
+    pub selected: Option<Entity>,
+    /// Run one fixed step at the end of this frame (while paused).
+    pub step_requested: bool,
+    /// Collider friction and restitution to apply to every collider when changed.
+    collider_material: Option<(f32, f32)>,
+}
+
+type Cloths<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        Option<&'static Name>,
+        &'static mut ClothSimulation,
+        Option<&'static mut ClothSettings>,
+    ),
+>;
+
+#[allow(clippy::too_many_arguments)]
+fn panel(
+    mut contexts: EguiContexts,
+    mut state: ResMut<DrapePanel>,
+    mut commands: Commands,
+    mut cloths: Cloths,
+    defaults: Res<DefaultClothSettings>,
+    mut drape: ResMut<DrapeSettings>,
+    mut time: ResMut<Time<Virtual>>,
+    timings: Res<DrapeTimings>,
+    mut debug: ResMut<ClothDebugColors>,
+    mut gizmos: ResMut<ColliderGizmos>,
+    mut colliders: Query<&mut ClothCollider>,
+    drag: Option<ResMut<super::drag::ClothDrag>>,
+) -> Result {
+    let ctx = contexts.ctx_mut()?;
+    if let Some(mut drag) = drag {
+        let over = ctx.egui_wants_pointer_input() || ctx.is_pointer_over_egui();
+        if drag.pointer_over_ui != over {
+            drag.pointer_over_ui = over;
+        }
+    }
+    let names: Vec<(Entity, String)> = cloths
+        .iter()
+        .map(|(e, name, _, _)| {
+            (
+                e,
+                name.map_or_else(|| format!("cloth {e}"), |n| n.to_string()),
+            )
+        })
+        .collect();
+    if state
+        .selected
+        .is_none_or(|e| !names.iter().any(|(n, _)| *n == e))
+    {
+        state.selected = names.first().map(|(e, _)| *e);
+    }
+    let (friction0, restitution0) = state.collider_material.unwrap_or_else(|| {
+        colliders.iter().next().map_or((0.5, 0.0), |c| {
+            (c.material.friction, c.material.restitution)
+        })
+    });
+    let (mut collider_friction, mut collider_restitution) = (friction0, restitution0);
+
+    egui::Window::new("bevy_drape")
+        .default_width(280.0)
+        .show(ctx, |ui| {
+            // World.
+            ui.horizontal(|ui| {
+                let paused = time.is_paused();
+                if ui.button(if paused { "run" } else { "pause" }).clicked() {
+                    if paused {
+                        time.unpause();
+                    } else {
+                        time.pause();
+                    }
+                }
+                if ui.add_enabled(paused, egui::Button::new("step")).clicked() {
+                    state.step_requested = true;
+                }
+                if ui.button("reset all").clicked() {
+                    for (_, _, mut simulation, _) in &mut cloths {
+                        simulation.sim_mut().reset();
+                    }
+                }
+            });
+            let mut speed = time.relative_speed();
+            if ui
+                .add(egui::Slider::new(&mut speed, 0.05..=2.0).text("time scale"))
+                .changed()
+            {
+                time.set_relative_speed(speed);
+            }
+            ui.add(egui::Slider::new(&mut drape.gravity.y, -20.0..=0.0).text("gravity y, m/s²"));
+
+            ui.separator();
+            ui.label(format!(
+                "fixed step {:.2} ms: animation {:.2}, IK {:.2}, colliders {:.2}, cloth {:.2}",
+                ms(timings.total()),
+                ms(timings.animation),
+                ms(timings.inverse_kinematics),
+                ms(timings.colliders),
+                ms(timings.cloth)
+            ));
+
+            ui.separator();
+            let selected_name = names
+                .iter()
+                .find(|(e, _)| Some(*e) == state.selected)
+                .map_or("none".to_string(), |(_, n)| n.clone());
+            egui::ComboBox::from_label("cloth")
+                .selected_text(selected_name)
+                .show_ui(ui, |ui| {
+                    for (e, name) in &names {
+                        ui.selectable_value(&mut state.selected, Some(*e), name);
+                    }
+                });
+            if let Some(selected) = state.selected
+                && let Ok((entity, _, mut simulation, settings)) = cloths.get_mut(selected)
+            {
+                let mut edited = settings.as_deref().copied().unwrap_or(defaults.0);
+                cloth_controls(ui, &mut edited);
+                if ui.button("reset cloth").clicked() {
+                    simulation.sim_mut().reset();
+                }
+                let sim = simulation.sim();
+                let strain = sim.strain();
+                ui.label(format!(
+                    "max strain {:.2}%, mean {:.3}%\nenergy {:.4} J (kinetic {:.4})\n\
+                     {} collider contacts, {} self-contacts, {} substeps{}",
+                    100.0 * strain.max,
+                    100.0 * strain.mean,
+                    sim.kinetic_energy() + sim.potential_energy(drape.gravity),
+                    sim.kinetic_energy(),
+                    sim.contact_count(),
+                    sim.self_contact_count(),
+                    sim.last_substeps(),
+                    if simulation.is_frozen() {
+                        "; frozen (diverged)"
+                    } else {
+                        ""
+                    }
+                ));
+                match settings {
+                    Some(mut current) => {
+                        if *current != edited {
+                            *current = edited;
+                        }
+                    }
+                    None => {
+                        if edited != defaults.0 {
+                            commands.entity(entity).insert(edited);
+                        }
+                    }
+                }
+            }
+
+            ui.separator();
+            ui.label("colliders (all)");
+            ui.add(egui::Slider::new(&mut collider_friction, 0.0..=1.5).text("friction"));
+            ui.add(egui::Slider::new(&mut collider_restitution, 0.0..=1.0).text("restitution"));
+            ui.checkbox(&mut gizmos.enabled, "show collider gizmos");
+            egui::ComboBox::from_label("debug colours")
+                .selected_text(format!("{:?}", debug.0))
+                .show_ui(ui, |ui| {
+                    for mode in [
+                        DebugColorMode::Off,
+                        DebugColorMode::Strain,
+                        DebugColorMode::Speed,
+                        DebugColorMode::Contact,
+                        DebugColorMode::Pinned,
+                    ] {
+                        ui.selectable_value(&mut debug.0, mode, format!("{mode:?}"));
+                    }
+                });
+        });
+
+    if (collider_friction, collider_restitution) != (friction0, restitution0) {
+        for mut collider in &mut colliders {
+            collider.material.friction = collider_friction;
+            collider.material.restitution = collider_restitution;
+        }
+        state.collider_material = Some((collider_friction, collider_restitution));
+    }
+    Ok(())
+}
+
+/// The sliders of one cloth's settings.
+fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
+    let solver = &mut settings.solver;
+    let method_name = solver.method.name();
+    egui::ComboBox::from_label("method")
+        .selected_text(method_name)
+        .show_ui(ui, |ui| {
+            for method in [
+                SolverMethod::Xpbd,
+                SolverMethod::Pbd { stiffness: 1.0 },
+                SolverMethod::MassSpring,
+                SolverMethod::Hybrid,
+            ] {
+                let is = std::mem::discriminant(&solver.method) == std::mem::discriminant(&method);
+                if ui.selectable_label(is, method.name()).clicked() && !is {
+                    solver.method = method;
+                }
+            }
+        });
+    ui.add(
+        egui::Slider::new(&mut solver.substeps, 1..=256)
+            .logarithmic(true)
+            .text("substeps"),
+    );
+    ui.add(egui::Slider::new(&mut solver.iterations, 1..=20).text("iterations"));
+    match &mut solver.method {
+        SolverMethod::Xpbd | SolverMethod::Hybrid => {
+            ui.add(
+                egui::Slider::new(&mut solver.stretch_compliance, 0.0..=1e-2)
+                    .logarithmic(true)
+                    .text("stretch compliance, m/N"),
+            );
+        }
+        SolverMethod::Pbd { stiffness } => {
+            ui.add(egui::Slider::new(stiffness, 0.01..=1.0).text("PBD stiffness"));
+        }
+        SolverMethod::MassSpring => {}
+    }
+    match solver.method {
+        SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
+            ui.add(
+                egui::Slider::new(&mut solver.bend_compliance, 1.0..=1e5)
+                    .logarithmic(true)
+                    .text("bend compliance, 1/(N m)"),
+            );
+        }
+        SolverMethod::MassSpring | SolverMethod::Hybrid => {
+            let springs = &mut solver.springs;
+            for (name, constants) in [
+                ("structural k, N/m", &mut springs.structural),
+                ("shear k, N/m", &mut springs.shear),
+                ("bend k, N/m", &mut springs.bend),
+            ] {
+                ui.add(
+                    egui::Slider::new(&mut constants.stiffness, 0.1..=1e5)
+                        .logarithmic(true)
+                        .text(name),
+                );
+            }
+            ui.checkbox(&mut solver.auto_substeps, "automatic substeps");
+        }
+    }
+    ui.add(
+        egui::Slider::new(&mut settings.density, 0.01..=2.0)
+            .logarithmic(true)
+            .text("density, kg/m²"),
+    );
+    ui.horizontal(|ui| {
+        ui.add(egui::Slider::new(&mut solver.damping, 0.0..=10.0).text("damping, 1/s"));
+        ui.selectable_value(&mut solver.damping_mode, DampingMode::Rigid, "rigid");
+        ui.selectable_value(&mut solver.damping_mode, DampingMode::Plain, "plain");
+    });
+    ui.add(egui::Slider::new(&mut solver.thickness, 0.0..=0.05).text("thickness, m"));
+    ui.add(egui::Slider::new(&mut solver.friction, 0.0..=1.5).text("friction"));
+    ui.checkbox(&mut solver.self_collision, "self-collision");
+    ui.checkbox(&mut solver.long_range_attachments, "long-range attachments");
+}
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Runs the drape schedule's fixed main schedule once, with the fixed clock, when the panel
+/// asked for a single step.
+fn single_step(world: &mut World) {
+    let requested = world
+        .get_resource::<DrapePanel>()
+        .is_some_and(|p| p.step_requested);
+    if !requested {
+        return;
+    }
+    if let Some(mut panel) = world.get_resource_mut::<DrapePanel>() {
+        panel.step_requested = false;
+    }
+    let label = world
+        .get_resource::<DrapeSchedule>()
+        .map(|s| s.0)
+        .unwrap_or_else(|| FixedPostUpdate.intern());
+    // A clock advanced by one fixed timestep, as the fixed schedule sees it.
+    let mut fixed = Time::<()>::default();
+    fixed.advance_by(world.resource::<Time<Fixed>>().timestep());
+    let previous = std::mem::replace(&mut *world.resource_mut::<Time>(), fixed);
+    // Everything the fixed step runs: animation, IK, colliders and cloth all live in the
+    // drape schedule, which FixedMain runs.
+    if world.try_run_schedule(bevy::app::FixedMain).is_err() {
+        let _ = world.try_run_schedule(label);
+    }
+    *world.resource_mut::<Time>() = previous;
+}
