@@ -10,6 +10,22 @@ use thiserror::Error;
 /// Why a cloth could not be built or changed.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ClothError {
+    /// The cloth's mesh file could not be loaded.
+    #[error("cannot load the mesh {path}: {reason}")]
+    MeshLoadFailed {
+        /// The asset path.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A volume constraint was asked of a surface that does not close.
+    #[error(
+        "a volume constraint needs a closed surface; this one has {boundary_edges} boundary or non-manifold edges"
+    )]
+    OpenSurface {
+        /// Edges not shared by exactly two triangles in opposite directions.
+        boundary_edges: usize,
+    },
     /// A garment pattern's dimensions make no garment.
     #[error("invalid pattern: {0}")]
     InvalidPattern(String),

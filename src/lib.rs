@@ -33,7 +33,7 @@ pub mod prelude {
     };
     pub use crate::cloth::{
         ClothModel, ClothSim, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
-        SolverSettings, SpringConstants, SpringSettings,
+        SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
     };
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{

@@ -15,6 +15,8 @@ pub mod settings;
 pub mod sim;
 pub mod state;
 pub mod stretch_limits;
+pub mod volume;
+pub mod weld;
 
 pub use constraints::{Plane, Tether};
 pub use garment::{PonchoDesc, to_obj};
@@ -24,3 +26,5 @@ pub use self_collision::{SelfCollision, SelfContactPair};
 pub use settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 pub use sim::{ClothSim, Divergence, Pin, StrainStats};
 pub use state::ClothState;
+pub use volume::{VolumeConstraint, VolumeSettings};
+pub use weld::{Welded, weld};

@@ -2,7 +2,7 @@
 //! draw [`ClothSim`]s.
 
 use bevy::app::{App, Plugin, PostUpdate};
-use bevy::asset::Assets;
+use bevy::asset::{AssetServer, Assets, LoadState};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::{error, warn};
@@ -16,6 +16,7 @@ use super::mesh::{compute_normals, mesh_triangles};
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
+use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::ColliderWorld;
 use crate::error::ClothError;
 use crate::interact::colors::{DebugColorMode, debug_colors};
@@ -174,16 +175,23 @@ impl Default for DrapeSettings {
 #[derive(Component, Debug)]
 pub struct ClothSimulation {
     sim: ClothSim,
-    /// Mesh-space rest positions, for pins that follow the entity.
+    /// Mesh-space rest positions of the mesh's vertices, for pins that follow the entity.
     local_rest: Vec<Vec3>,
+    /// The particle of every mesh vertex (vertices split at seams share one).
+    vertex_to_particle: Vec<u32>,
     /// Positions at the end of the previous fixed step, for interpolation.
     render_from: Vec<Vec3A>,
     normals: Vec<Vec3>,
     colors: Vec<[f32; 4]>,
+    /// `colors` per mesh vertex.
+    vertex_colors: Vec<[f32; 4]>,
+    /// Interpolated particle positions in the mesh's frame, for the normals.
+    local_positions: Vec<[f32; 3]>,
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
     planes: Vec<Plane>,
     warned_invalid_settings: bool,
+    warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
     frozen_with: Option<ClothSettings>,
 }
@@ -197,6 +205,12 @@ impl ClothSimulation {
     /// Lets a frozen cloth step again.
     pub fn unfreeze(&mut self) {
         self.frozen_with = None;
+    }
+
+    /// The particle that mesh vertex `vertex` became (vertices split at seams are welded
+    /// into one particle).
+    pub fn particle_of_vertex(&self, vertex: u32) -> Option<u32> {
+        self.vertex_to_particle.get(vertex as usize).copied()
     }
 
     /// The simulated cloth.
@@ -251,28 +265,55 @@ fn build_simulation(
     density: f32,
 ) -> Result<(ClothSimulation, Vec<String>), ClothError> {
     let (local, indices) = mesh_triangles(mesh)?;
-    let world: Vec<Vec3> = local.iter().map(|&p| global.transform_point(p)).collect();
-    let model = ClothModel::from_triangles(&world, &indices, density)?;
-    let warnings = model.warnings.iter().map(ToString::to_string).collect();
+    // Vertices split at seams (texture coordinates, normals) become one particle.
+    let welded = weld(&local, &indices, default_tolerance(&local));
+    let world: Vec<Vec3> = welded
+        .positions
+        .iter()
+        .map(|&p| global.transform_point(p))
+        .collect();
+    let model = ClothModel::from_triangles(&world, &welded.indices, density)?;
+    let warnings: Vec<String> = model.warnings.iter().map(ToString::to_string).collect();
+    if welded.merged_any() {
+        debug!(
+            "{} mesh vertices welded into {} particles",
+            local.len(),
+            welded.positions.len()
+        );
+    }
     let mut sim = ClothSim::new(model);
-    let pinned: Vec<u32> = cloth
+    let mut pinned = Vec::new();
+    for &v in cloth
         .pinned_vertices
         .iter()
-        .copied()
-        .chain(cloth.attachments.iter().map(|a| a.vertex))
-        .collect();
+        .chain(cloth.attachments.iter().map(|a| &a.vertex))
+    {
+        match welded.vertex_to_particle.get(v as usize) {
+            Some(&p) => pinned.push(p),
+            None => {
+                return Err(ClothError::VertexOutOfRange {
+                    vertex: v,
+                    vertex_count: local.len(),
+                });
+            }
+        }
+    }
     sim.set_pins(&pinned)?;
     let render_from = sim.state().positions.clone();
     Ok((
         ClothSimulation {
             sim,
             local_rest: local,
+            vertex_to_particle: welded.vertex_to_particle,
             render_from,
             normals: Vec::new(),
             colors: Vec::new(),
+            vertex_colors: Vec::new(),
+            local_positions: Vec::new(),
             base_colors: Vec::new(),
             planes: Vec::new(),
             warned_invalid_settings: false,
+            warned_volume: false,
             frozen_with: None,
         },
         warnings,
@@ -299,9 +340,24 @@ fn build_cloths(
     mut meshes: ResMut<Assets<Mesh>>,
     defaults: Res<DefaultClothSettings>,
     transforms: TransformHelper,
+    asset_server: Option<Res<AssetServer>>,
 ) {
     for (entity, cloth, mesh3d, settings) in &new_cloths {
         let Some(mesh) = meshes.get(&mesh3d.0) else {
+            // A file that will never load: say which, once.
+            if let Some(server) = &asset_server
+                && let LoadState::Failed(err) = server.load_state(&mesh3d.0)
+            {
+                let path = server
+                    .get_path(&mesh3d.0)
+                    .map_or_else(|| "(no path)".to_string(), |p| p.to_string());
+                let error = ClothError::MeshLoadFailed {
+                    path,
+                    reason: err.to_string(),
+                };
+                error!("cloth {entity} cannot be built: {error}");
+                commands.entity(entity).insert(ClothBuildError(error));
+            }
             continue;
         };
         let density = settings.unwrap_or(&defaults.0).density;
@@ -317,7 +373,7 @@ fn build_cloths(
                 // colours from the start (the mesh's own, or white): debug colours then only
                 // change values, never the vertex layout the renderer was prepared for.
                 let mut own_mesh = mesh.clone();
-                let vertices = simulation.sim.state().len();
+                let vertices = simulation.vertex_to_particle.len();
                 simulation.base_colors = match own_mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
                     Some(VertexAttributeValues::Float32x4(c)) if c.len() == vertices => c.clone(),
                     _ => vec![[1.0; 4]; vertices],
@@ -385,18 +441,23 @@ fn step_cloths(
 
         if let Ok(global) = transforms.compute_global_transform(entity) {
             for &v in &cloth.pinned_vertices {
-                if let Some(&rest) = simulation.local_rest.get(v as usize) {
-                    sim.set_pin_target(v, global.transform_point(rest));
+                if let (Some(&rest), Some(&p)) = (
+                    simulation.local_rest.get(v as usize),
+                    simulation.vertex_to_particle.get(v as usize),
+                ) {
+                    sim.set_pin_target(p, global.transform_point(rest));
                 }
             }
         }
         for attachment in &cloth.attachments {
             match transforms.compute_global_transform(attachment.target) {
                 Ok(target) => {
-                    sim.set_pin_target(
-                        attachment.vertex,
-                        target.transform_point(attachment.offset),
-                    );
+                    if let Some(&p) = simulation
+                        .vertex_to_particle
+                        .get(attachment.vertex as usize)
+                    {
+                        sim.set_pin_target(p, target.transform_point(attachment.offset));
+                    }
                 }
                 Err(err) => warn!(
                     "cloth {entity}: attachment of vertex {} to {}: {err}",
@@ -406,6 +467,13 @@ fn step_cloths(
         }
 
         sim.step(&settings.solver, drape.gravity, dt);
+        if settings.solver.volume.is_some()
+            && let Some(err) = sim.volume_error()
+            && !simulation.warned_volume
+        {
+            warn!("cloth {entity}: {err}; stepped without it");
+            simulation.warned_volume = true;
+        }
 
         if let Some(divergence) = sim.divergence(&settings.divergence) {
             let method = settings.solver.method;
@@ -456,32 +524,44 @@ fn write_back_meshes(
         };
         let to_local = global.affine().inverse();
         let current = &simulation.sim.state().positions;
+        let map = &simulation.vertex_to_particle;
         let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
             mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
         else {
             continue;
         };
-        if positions.len() != current.len() {
+        if positions.len() != map.len()
+            || current.len() != simulation.render_from.len()
+            || map.iter().any(|&p| p as usize >= current.len())
+        {
             continue;
         }
-        for ((out, from), to) in positions
-            .iter_mut()
-            .zip(&simulation.render_from)
-            .zip(current)
-        {
-            let p = to_local.transform_point3a(from.lerp(*to, alpha));
-            if p.is_finite() {
-                *out = p.to_array();
+        for (out, &p) in positions.iter_mut().zip(map) {
+            let p = p as usize;
+            let at = to_local.transform_point3a(simulation.render_from[p].lerp(current[p], alpha));
+            if at.is_finite() {
+                *out = at.to_array();
             }
         }
+        // Normals per particle (smooth across welded seams), then per vertex.
+        simulation.local_positions.clear();
+        simulation.local_positions.extend(
+            simulation
+                .render_from
+                .iter()
+                .zip(current)
+                .map(|(from, to)| to_local.transform_point3a(from.lerp(*to, alpha)).to_array()),
+        );
         compute_normals(
-            positions,
+            &simulation.local_positions,
             &simulation.sim.model().triangles,
             &mut simulation.normals,
         );
-        let normals = simulation.normals.iter().map(|n| n.to_array());
+        let normals = map
+            .iter()
+            .map(|&p| simulation.normals[p as usize].to_array());
         match mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_NORMAL) {
-            Ok(Some(VertexAttributeValues::Float32x3(out))) if out.len() == current.len() => {
+            Ok(Some(VertexAttributeValues::Float32x3(out))) if out.len() == map.len() => {
                 for (out, n) in out.iter_mut().zip(normals) {
                     *out = n;
                 }
@@ -495,7 +575,11 @@ fn write_back_meshes(
         let colors = if simulation.colors.is_empty() {
             &simulation.base_colors
         } else {
-            &simulation.colors
+            simulation.vertex_colors.clear();
+            simulation
+                .vertex_colors
+                .extend(map.iter().map(|&p| simulation.colors[p as usize]));
+            &simulation.vertex_colors
         };
         if let Ok(Some(VertexAttributeValues::Float32x4(out))) =
             mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_COLOR)

@@ -1,6 +1,7 @@
 //! Solver settings: plain data shared by the core and the Bevy components.
 
 use super::mass_spring::SpringSettings;
+use super::volume::VolumeSettings;
 use crate::error::ClothError;
 
 /// The constraint solver a cloth uses.
@@ -136,6 +137,11 @@ pub struct SolverSettings {
     /// apart ([`crate::cloth::self_collision`]), so the cloth does not pass through itself.
     /// Default: `false`.
     pub self_collision: bool,
+    /// Hold the volume a closed cloth encloses (a balloon) at `pressure` times its rest
+    /// volume ([`crate::cloth::volume`]; XPBD, PBD and hybrid). An open cloth asked for it is
+    /// stepped without it and reports [`crate::cloth::ClothSim::volume_error`]. Default:
+    /// `None`.
+    pub volume: Option<VolumeSettings>,
 }
 
 impl Default for SolverSettings {
@@ -155,6 +161,7 @@ impl Default for SolverSettings {
             springs: SpringSettings::default(),
             auto_substeps: false,
             self_collision: false,
+            volume: None,
         }
     }
 }
@@ -216,6 +223,22 @@ impl SolverSettings {
                 SolverMethod::MassSpring | SolverMethod::Hybrid => ("method", 0.0, true, ""),
             },
         ];
+        if let Some(volume) = self.volume {
+            if !(volume.pressure.is_finite() && volume.pressure > 0.0) {
+                return Err(ClothError::InvalidSetting {
+                    name: "volume.pressure",
+                    value: volume.pressure,
+                    reason: "finite and > 0",
+                });
+            }
+            if !(volume.compliance.is_finite() && volume.compliance >= 0.0) {
+                return Err(ClothError::InvalidSetting {
+                    name: "volume.compliance",
+                    value: volume.compliance,
+                    reason: "finite and >= 0",
+                });
+            }
+        }
         for (name, value) in self.springs.named() {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(ClothError::InvalidSetting {

@@ -15,6 +15,7 @@ use super::self_collision::SelfCollision;
 use super::settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
+use super::volume::VolumeConstraint;
 use crate::collide::{Collider, Contact, ContactScratch};
 use crate::error::ClothError;
 
@@ -208,6 +209,8 @@ pub struct ClothSim {
     /// Tethers from free particles to the particles colliders held in the last step.
     contact_tethers: Vec<Tether>,
     anchors: Vec<u32>,
+    /// Built the first time a step asks for a volume constraint (or its error).
+    volume: Option<Result<VolumeConstraint, ClothError>>,
     /// Built the first time a step asks for self-collision.
     self_collision: Option<SelfCollision>,
     self_contacts: usize,
@@ -268,6 +271,7 @@ impl ClothSim {
             drag: None,
             contact_tethers: Vec::new(),
             anchors: Vec::new(),
+            volume: None,
             self_collision: None,
             self_contacts: 0,
         }
@@ -566,6 +570,9 @@ impl ClothSim {
             return;
         }
         self.build_contact_tethers(settings);
+        if settings.volume.is_some() && self.volume.is_none() {
+            self.volume = Some(VolumeConstraint::new(&self.model));
+        }
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
@@ -639,6 +646,14 @@ impl ClothSim {
             }
             self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
+            let volume = match (settings.volume, self.volume.as_mut()) {
+                (Some(v), Some(Ok(constraint))) => {
+                    constraint.reset_multiplier();
+                    Some((v, constraint))
+                }
+                _ => None,
+            };
+            let mut volume = volume;
             self.isometric_lambdas.fill(Vec3A::ZERO);
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
@@ -649,6 +664,13 @@ impl ClothSim {
                     }
                 }
                 project_edges(&self.model.edges, &mut self.edge_lambdas, x, w, stretch);
+                if let Some((v, constraint)) = volume.as_mut() {
+                    let alpha_tilde = match settings.method {
+                        SolverMethod::Pbd { .. } => 0.0,
+                        _ => v.compliance / (h * h),
+                    };
+                    constraint.project(x, w, v.pressure, alpha_tilde);
+                }
                 // Bending is soft: once per substep.
                 if iteration == 0 {
                     if let Some(alpha_tilde) = isometric {
@@ -813,6 +835,13 @@ impl ClothSim {
             }
             if hybrid {
                 springs.lambdas.fill(0.0);
+                let mut volume = match (settings.volume, self.volume.as_mut()) {
+                    (Some(v), Some(Ok(constraint))) => {
+                        constraint.reset_multiplier();
+                        Some((v, constraint))
+                    }
+                    _ => None,
+                };
                 for _ in 0..iterations {
                     if settings.long_range_attachments {
                         project_long_range(&self.stretch_limits, &self.tethers, x, w);
@@ -822,6 +851,9 @@ impl ClothSim {
                     }
                     let edges = &springs.set.structural_edges;
                     project_edges(edges, &mut springs.lambdas, x, w, stretch);
+                    if let Some((v, constraint)) = volume.as_mut() {
+                        constraint.project(x, w, v.pressure, v.compliance / (h * h));
+                    }
                     project_planes(
                         &self.planes,
                         x,
@@ -940,6 +972,32 @@ impl ClothSim {
                     length: best.0.sqrt(),
                 });
             }
+        }
+    }
+
+    /// Builds the volume constraint now (it is otherwise built by the first step with
+    /// [`SolverSettings::volume`]) and returns the rest volume, or
+    /// [`ClothError::OpenSurface`] if the cloth does not close.
+    pub fn enable_volume(&mut self) -> Result<f32, ClothError> {
+        let built = self
+            .volume
+            .get_or_insert_with(|| VolumeConstraint::new(&self.model));
+        match built {
+            Ok(c) => Ok(c.rest_volume()),
+            Err(e) => Err(e.clone()),
+        }
+    }
+
+    /// Why the volume constraint could not be built, once a step asked for it.
+    pub fn volume_error(&self) -> Option<&ClothError> {
+        self.volume.as_ref().and_then(|v| v.as_ref().err())
+    }
+
+    /// The enclosed volume now and at rest, m^3, once the volume constraint is built.
+    pub fn volume(&self) -> Option<(f32, f32)> {
+        match self.volume.as_ref() {
+            Some(Ok(c)) => Some((c.volume(&self.state.positions), c.rest_volume())),
+            _ => None,
         }
     }
 
