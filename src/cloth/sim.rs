@@ -646,14 +646,13 @@ impl ClothSim {
             }
             self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
-            let volume = match (settings.volume, self.volume.as_mut()) {
+            let mut volume = match (settings.volume, self.volume.as_mut()) {
                 (Some(v), Some(Ok(constraint))) => {
                     constraint.reset_multiplier();
                     Some((v, constraint))
                 }
                 _ => None,
             };
-            let mut volume = volume;
             self.isometric_lambdas.fill(Vec3A::ZERO);
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
