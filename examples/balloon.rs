@@ -1,6 +1,7 @@
 //! Closed cloth and mesh files: a balloon (a UV sphere welded at its seams, held at a volume
-//! by the pressure constraint) dropped on the ground and squashed by a capsule coming down on it,
-//! and a sheet draped over a stool read from `assets/meshes/stool.obj` as a mesh collider.
+//! by the pressure constraint) dropped on the ground, tied there by its knot where it lands,
+//! and squashed by a capsule coming down on it; and a sheet draped over a stool read from
+//! `assets/meshes/stool.obj` as a mesh collider.
 //!
 //! ```text
 //! cargo run --features render --example balloon
@@ -29,7 +30,8 @@ fn main() {
         ))
         .add_systems(Startup, setup)
         .add_systems(Update, (keys, label))
-        .add_systems(FixedUpdate, roll_capsule)
+        .init_resource::<KnotTied>()
+        .add_systems(FixedUpdate, (roll_capsule, tie_knot))
         .run();
 }
 
@@ -38,6 +40,10 @@ struct Balloon;
 
 #[derive(Component)]
 struct Roller;
+
+/// Whether the balloon's knot is tied to the ground yet.
+#[derive(Resource, Default)]
+struct KnotTied(bool);
 
 #[derive(Component)]
 struct Label;
@@ -94,7 +100,8 @@ fn setup(
         Roller,
         Mesh3d(meshes.add(Capsule3d::new(0.12, 0.8).mesh())),
         MeshMaterial3d(grey.clone()),
-        ClothCollider::capsule(0.12, 0.4).with_friction(0.4),
+        // Frictionless too, for the same reason as the ground.
+        ClothCollider::capsule(0.12, 0.4).with_friction(0.0),
         Transform::from_xyz(BALLOON_X, 1.6, 0.0)
             .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2)),
     ));
@@ -139,6 +146,40 @@ fn roll_capsule(time: Res<Time>, mut rollers: Query<&mut Transform, With<Roller>
     };
     for mut transform in &mut rollers {
         transform.translation = Vec3::new(BALLOON_X, 1.6 - 1.0 * squash, 0.0);
+    }
+}
+
+/// Ties the balloon's lowest particle (its knot) to the ground where it first touches it, so
+/// that the capsule squashes the balloon in place: on frictionless surfaces a convex press
+/// squeezes anything the least off centre out sideways.
+/// A reset (R, or the panel) puts the knot back in the air: it is untied, and tied again where
+/// the balloon lands.
+fn tie_knot(mut tied: ResMut<KnotTied>, mut balloons: Query<&mut ClothSimulation, With<Balloon>>) {
+    for mut balloon in &mut balloons {
+        let sim = balloon.sim();
+        if tied.0 {
+            let knot_in_air = sim
+                .pins()
+                .iter()
+                .any(|pin| sim.state().positions[pin.particle as usize].y > 0.1);
+            if knot_in_air {
+                tied.0 = balloon.sim_mut().set_pins(&[]).is_err();
+            }
+            continue;
+        }
+        let lowest = balloon
+            .sim()
+            .state()
+            .positions
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.y.total_cmp(&b.1.y))
+            .map(|(i, p)| (i as u32, p.y));
+        if let Some((knot, height)) = lowest
+            && height < 0.05
+        {
+            tied.0 = balloon.sim_mut().set_pins(&[knot]).is_ok();
+        }
     }
 }
 

@@ -12,6 +12,7 @@ pub mod poncho;
 pub mod scenes;
 pub mod schedule;
 pub mod skeleton;
+pub mod study;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;

@@ -9,6 +9,7 @@ use bevy_drape::cloth::{
 };
 use bevy_drape::error::{ClothError, ClothWarning};
 use bevy_drape::scenes::{GRAVITY, HangingCloth};
+use bevy_drape::study::sag;
 
 const DT: f32 = 1.0 / 60.0;
 
@@ -174,29 +175,9 @@ fn compliant_constraint_oscillates_like_a_spring_of_stiffness_one_over_complianc
     assert!((period - theory).abs() / theory < 0.01);
 }
 
-/// Sag of the S1 cloth (N = 16) at rest: how far below the pins its centre of mass settles.
+/// Sag of the S1 cloth (N = 16) at rest with stretch compliance 0.05 m/N.
 fn s1_sag(method: SolverMethod, iterations: u32) -> f32 {
-    s1_sag_with(method, iterations, 0.05)
-}
-
-fn s1_sag_with(method: SolverMethod, iterations: u32, stretch_compliance: f32) -> f32 {
-    let scene = HangingCloth { n: 16 };
-    let mut sim = scene.build();
-    let settings = SolverSettings {
-        method,
-        substeps: 8,
-        iterations,
-        stretch_compliance,
-        // Plain damping: rigid damping would leave the swing about the pins undamped.
-        damping: 6.0,
-        damping_mode: DampingMode::Plain,
-        long_range_attachments: false,
-        ..Default::default()
-    };
-    for _ in 0..240 {
-        sim.step(&settings, GRAVITY, DT);
-    }
-    1.0 - sim.rigid_motion().unwrap().center_of_mass.y
+    sag(method, iterations, 0.05)
 }
 
 #[test]
@@ -212,7 +193,7 @@ fn xpbd_sag_does_not_depend_on_iterations_but_pbd_sag_does() {
     let pbd: Vec<f32> = [5, 10, 20]
         .map(|it| s1_sag(SolverMethod::Pbd { stiffness: 0.05 }, it))
         .to_vec();
-    let inextensible = s1_sag_with(SolverMethod::Xpbd, 20, 0.0);
+    let inextensible = sag(SolverMethod::Xpbd, 20, 0.0);
     println!("sag at 5/10/20 iterations: XPBD {xpbd:?}, PBD {pbd:?}, inextensible {inextensible}");
     // The compliance is visible: the cloth hangs centimetres lower than an inextensible one.
     assert!(xpbd[0] > inextensible + 0.03);

@@ -23,7 +23,7 @@ pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSet, SpringSettings};
 pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use self_collision::{SelfCollision, SelfContactPair};
-pub use settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
+pub use settings::{AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 pub use sim::{ClothSim, Divergence, Pin, StrainStats};
 pub use state::ClothState;
 pub use volume::{VolumeConstraint, VolumeSettings};

@@ -142,6 +142,83 @@ pub struct SolverSettings {
     /// stepped without it and reports [`crate::cloth::ClothSim::volume_error`]. Default:
     /// `None`.
     pub volume: Option<VolumeSettings>,
+    /// Pick the substep count per fixed step from a target strain instead of using
+    /// `substeps` throughout (XPBD, PBD and hybrid; see [`AdaptiveSubsteps`]). `substeps` is
+    /// where the count starts. Default: `None`.
+    pub adaptive: Option<AdaptiveSubsteps>,
+}
+
+/// An adaptive substep budget: the fewest substeps per fixed step that keep the cloth's largest
+/// structural strain below `target_strain`.
+///
+/// After every fixed step the solver measures the largest strain
+/// ([`crate::cloth::ClothSim::strain`]). Above the target, the next step takes `1 + grow`
+/// times as many substeps (at least one more); below `lower_fraction` of the target for
+/// `calm_steps` steps in a row, one fewer. Between the two the count holds (the hysteresis
+/// band), so it does not flip between two counts every step. The count stays within
+/// `min_substeps ..= max_substeps`; [`crate::cloth::ClothSim::last_substeps`] reports the one
+/// used. The first step uses [`SolverSettings::substeps`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSubsteps {
+    /// The largest structural strain `|len - rest| / rest` to allow. Default: `0.01`.
+    pub target_strain: f32,
+    /// The fewest substeps per fixed step. Default: `1`.
+    pub min_substeps: u32,
+    /// The most substeps per fixed step. Default: `64`.
+    pub max_substeps: u32,
+    /// The fraction added to the count when the strain is over the target. Default: `0.5`.
+    pub grow: f32,
+    /// Below this fraction of the target the count may go down. Default: `0.7`.
+    pub lower_fraction: f32,
+    /// Fixed steps in a row below the lower bound before the count goes down by one.
+    /// Default: `5`.
+    pub calm_steps: u32,
+}
+
+impl AdaptiveSubsteps {
+    /// A budget that holds `target_strain` with the default bounds.
+    pub fn target(target_strain: f32) -> Self {
+        Self {
+            target_strain,
+            ..Self::default()
+        }
+    }
+
+    /// The count for the step after one that used `current` substeps and ended with the
+    /// largest strain `strain`; `calm` counts the steps in a row below the lower bound.
+    pub fn next(&self, current: u32, strain: f32, calm: &mut u32) -> u32 {
+        let (lo, hi) = (self.min_substeps.max(1), self.max_substeps.max(1));
+        let current = current.clamp(lo, hi);
+        if strain.is_nan() || strain > self.target_strain {
+            // Over the target (or not finite): more, at once.
+            *calm = 0;
+            let more = (current as f32 * self.grow).floor() as u32;
+            return (current + more.max(1)).min(hi);
+        }
+        if strain < self.lower_fraction * self.target_strain {
+            *calm += 1;
+            if *calm >= self.calm_steps.max(1) {
+                *calm = 0;
+                return (current - 1).max(lo);
+            }
+        } else {
+            *calm = 0;
+        }
+        current
+    }
+}
+
+impl Default for AdaptiveSubsteps {
+    fn default() -> Self {
+        Self {
+            target_strain: 0.01,
+            min_substeps: 1,
+            max_substeps: 64,
+            grow: 0.5,
+            lower_fraction: 0.7,
+            calm_steps: 5,
+        }
+    }
 }
 
 impl Default for SolverSettings {
@@ -162,6 +239,7 @@ impl Default for SolverSettings {
             auto_substeps: false,
             self_collision: false,
             volume: None,
+            adaptive: None,
         }
     }
 }
@@ -236,6 +314,36 @@ impl SolverSettings {
                     name: "volume.compliance",
                     value: volume.compliance,
                     reason: "finite and >= 0",
+                });
+            }
+        }
+        if let Some(adaptive) = self.adaptive {
+            if !(adaptive.target_strain.is_finite() && adaptive.target_strain > 0.0) {
+                return Err(ClothError::InvalidSetting {
+                    name: "adaptive.target_strain",
+                    value: adaptive.target_strain,
+                    reason: "finite and > 0",
+                });
+            }
+            if !(adaptive.grow.is_finite() && adaptive.grow >= 0.0) {
+                return Err(ClothError::InvalidSetting {
+                    name: "adaptive.grow",
+                    value: adaptive.grow,
+                    reason: "finite and >= 0",
+                });
+            }
+            if !(adaptive.lower_fraction >= 0.0 && adaptive.lower_fraction <= 1.0) {
+                return Err(ClothError::InvalidSetting {
+                    name: "adaptive.lower_fraction",
+                    value: adaptive.lower_fraction,
+                    reason: "in [0, 1]",
+                });
+            }
+            if adaptive.min_substeps < 1 || adaptive.max_substeps < adaptive.min_substeps {
+                return Err(ClothError::InvalidSetting {
+                    name: "adaptive.max_substeps",
+                    value: adaptive.max_substeps as f32,
+                    reason: "at least adaptive.min_substeps, which is at least 1",
                 });
             }
         }

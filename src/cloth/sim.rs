@@ -12,7 +12,9 @@ use super::mass_spring::{SpringSet, auto_substeps};
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::self_collision::SelfCollision;
-use super::settings::{DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
+use super::settings::{
+    AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings,
+};
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
 use super::volume::VolumeConstraint;
@@ -214,6 +216,12 @@ pub struct ClothSim {
     /// Built the first time a step asks for self-collision.
     self_collision: Option<SelfCollision>,
     self_contacts: usize,
+    /// The substep count [`SolverSettings::adaptive`] chose for the next step (0: not yet).
+    adaptive_substeps: u32,
+    /// Steps in a row below the adaptive budget's lower bound.
+    adaptive_calm: u32,
+    /// The state before an adaptive step, to undo it.
+    adaptive_backup: ClothState,
 }
 
 impl ClothSim {
@@ -274,6 +282,9 @@ impl ClothSim {
             volume: None,
             self_collision: None,
             self_contacts: 0,
+            adaptive_substeps: 0,
+            adaptive_calm: 0,
+            adaptive_backup: ClothState::default(),
         }
     }
 
@@ -383,7 +394,8 @@ impl ClothSim {
     }
 
     /// The substeps the last [`ClothSim::step`] took (more than `settings.substeps` with
-    /// automatic substeps).
+    /// automatic substeps; with [`SolverSettings::adaptive`], every substep run, those of an
+    /// undone attempt included).
     pub fn last_substeps(&self) -> u32 {
         self.last_substeps
     }
@@ -482,6 +494,8 @@ impl ClothSim {
     /// grabbed.
     pub fn reset(&mut self) {
         self.state = ClothState::at_rest(&self.model);
+        self.adaptive_substeps = 0;
+        self.adaptive_calm = 0;
         if self.drag.take().is_some() {
             self.rebuild_tethers();
         }
@@ -546,7 +560,7 @@ impl ClothSim {
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
     /// (gravity plus any external acceleration) with `settings.method`, in
     /// `settings.substeps` substeps (more with `settings.auto_substeps` for the spring
-    /// methods).
+    /// methods; as many as [`SolverSettings::adaptive`] needs if set).
     ///
     /// [`SolverMethod::MassSpring`] is described in [`ClothSim::step_mass_spring`],
     /// [`SolverMethod::Hybrid`] in [`ClothSim::step_hybrid`]. XPBD and PBD take
@@ -577,6 +591,19 @@ impl ClothSim {
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
         }
+        match settings
+            .adaptive
+            .filter(|_| settings.method != SolverMethod::MassSpring)
+        {
+            Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt),
+            None => self.step_method(settings, acceleration, dt),
+        }
+        for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
+            pin.start = pin.end;
+        }
+    }
+
+    fn step_method(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
         match settings.method {
             SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
                 self.step_constraints(settings, acceleration, dt)
@@ -584,9 +611,47 @@ impl ClothSim {
             SolverMethod::MassSpring => self.step_mass_spring(settings, acceleration, dt),
             SolverMethod::Hybrid => self.step_hybrid(settings, acceleration, dt),
         }
-        for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
-            pin.start = pin.end;
+    }
+
+    /// One fixed step under [`SolverSettings::adaptive`]: the step runs at the chosen count;
+    /// if it ends above the target strain it is undone and run again with more substeps
+    /// (up to the maximum), so every step that can meet the target does. The count then
+    /// goes down as [`AdaptiveSubsteps::next`] says. [`ClothSim::last_substeps`] counts every
+    /// substep run, undone ones included (the step's cost).
+    fn step_adaptive(
+        &mut self,
+        settings: &SolverSettings,
+        budget: &AdaptiveSubsteps,
+        acceleration: Vec3,
+        dt: f32,
+    ) {
+        let (lo, hi) = (
+            budget.min_substeps.max(1),
+            budget.max_substeps.max(budget.min_substeps.max(1)),
+        );
+        let mut chosen = *settings;
+        chosen.substeps = match self.adaptive_substeps {
+            0 => settings.substeps,
+            n => n,
         }
+        .clamp(lo, hi);
+        self.adaptive_backup.clone_from(&self.state);
+        let mut run = 0;
+        loop {
+            self.step_method(&chosen, acceleration, dt);
+            run += chosen.substeps;
+            let strain = self.strain().max;
+            let next = budget.next(chosen.substeps, strain, &mut self.adaptive_calm);
+            if next > chosen.substeps && strain.is_finite() {
+                // Over the target: undo the step and run it again with more.
+                self.state.clone_from(&self.adaptive_backup);
+                chosen.substeps = next;
+                continue;
+            }
+            self.adaptive_substeps = next;
+            break;
+        }
+        self.last_substeps = run;
     }
 
     fn step_constraints(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
