@@ -78,11 +78,8 @@ fn setup(
         Vec3::new(0.0, 0.35, 0.0),
         3.2,
     );
-    // Frictionless ground: with friction the balloon creeps sideways (the volume projection
-    // pushes the rim of its contact patch along the ground every substep and friction takes
-    // that back from the particles in contact only; an open problem).
     commands.spawn((
-        ClothCollider::plane().with_friction(0.0),
+        ClothCollider::plane().with_friction(0.5),
         Transform::default(),
     ));
     let grey = materials.add(Color::srgb(0.45, 0.47, 0.5));
@@ -100,8 +97,7 @@ fn setup(
         Roller,
         Mesh3d(meshes.add(Capsule3d::new(0.12, 0.8).mesh())),
         MeshMaterial3d(grey.clone()),
-        // Frictionless too, for the same reason as the ground.
-        ClothCollider::capsule(0.12, 0.4).with_friction(0.0),
+        ClothCollider::capsule(0.12, 0.4).with_friction(0.4),
         Transform::from_xyz(BALLOON_X, 1.6, 0.0)
             .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2)),
     ));
@@ -134,9 +130,8 @@ fn setup(
     ));
 }
 
-/// The capsule comes down onto the balloon from 2 s to 6 s (squashing it to about two thirds
-/// of its height) and goes back up, every 8 s. It comes straight down: on frictionless ground
-/// anything off centre squirts the balloon away.
+/// The capsule comes down onto the balloon from 2 s to 6 s (squashing it to a little over
+/// half its resting height) and goes back up, every 8 s.
 fn roll_capsule(time: Res<Time>, mut rollers: Query<&mut Transform, With<Roller>>) {
     let t = time.elapsed_secs() % 8.0;
     let squash = if (2.0..6.0).contains(&t) {
@@ -145,13 +140,13 @@ fn roll_capsule(time: Res<Time>, mut rollers: Query<&mut Transform, With<Roller>
         0.0
     };
     for mut transform in &mut rollers {
-        transform.translation = Vec3::new(BALLOON_X, 1.6 - 1.0 * squash, 0.0);
+        transform.translation = Vec3::new(BALLOON_X, 1.6 - 1.15 * squash, 0.0);
     }
 }
 
 /// Ties the balloon's lowest particle (its knot) to the ground where it first touches it, so
-/// that the capsule squashes the balloon in place: on frictionless surfaces a convex press
-/// squeezes anything the least off centre out sideways.
+/// that the capsule squashes the balloon in place: a convex press rolls anything the least off
+/// centre out sideways.
 /// A reset (R, or the panel) puts the knot back in the air: it is untied, and tied again where
 /// the balloon lands.
 fn tie_knot(mut tied: ResMut<KnotTied>, mut balloons: Query<&mut ClothSimulation, With<Balloon>>) {
