@@ -53,8 +53,6 @@ pub const EARLY_FRAMES: u32 = 10;
 pub const RUN_FRAMES: u32 = 120;
 /// Substeps per frame of the reference run (XPBD, 2 iterations).
 pub const REFERENCE_SUBSTEPS: u32 = 1024;
-/// Rigid damping rate of the study's runs and reference, 1/s.
-pub const STUDY_DAMPING: f32 = 0.5;
 
 /// A method at a budget.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,15 +75,9 @@ impl Budget {
         }
     }
 
-    /// The study's settings for this method and budget: the crate's defaults (rigid damping
-    /// at [`STUDY_DAMPING`], as in the reference), automatic substeps off so that the budget
-    /// is what runs.
+    /// The crate's default settings (rigid damping included, as in the reference) with this
+    /// method and budget, automatic substeps off so that the budget is what runs.
     pub fn settings(&self) -> SolverSettings {
-        study_settings(self)
-    }
-
-    /// The crate's default settings with this method and budget.
-    pub fn settings_with_damping(&self) -> SolverSettings {
         SolverSettings {
             method: self.method,
             substeps: self.substeps,
@@ -161,27 +153,17 @@ pub fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> Trajectory {
     run
 }
 
-/// The study's settings for `method` at a budget: the crate's defaults with the study's
-/// damping, automatic substeps off so that the budget is what runs.
-fn study_settings(budget: &Budget) -> SolverSettings {
-    SolverSettings {
-        damping: STUDY_DAMPING,
-        damping_mode: DampingMode::Rigid,
-        ..budget.settings_with_damping()
-    }
-}
-
 /// The reference run of S1 at `n`: XPBD in `f64` with `substeps` per frame (the study uses
 /// [`REFERENCE_SUBSTEPS`]) and 2 iterations, over [`TRAJECTORY_FRAMES`] frames: inextensible
-/// edges, the crate's isometric bending (the same weights and compliance) and rigid damping at
-/// [`STUDY_DAMPING`], as the crate's defaults.
+/// edges, the crate's isometric bending (the same weights and compliance) and its default
+/// rigid damping.
 ///
 /// `f64`, because in `f32` a step this fine cannot hold its own corrections: a position near
 /// 1 m has an ulp of 1.2e-7 m, so a constraint's correction (a fraction of `g h^2`, 4e-8 m at
 /// 1024 substeps per frame) is rounded away and the velocity `(x - x_prev) / h` picks up
 /// 1e-3 m/s of noise per substep.
 pub fn reference(n: u32, substeps: u32) -> Trajectory {
-    reference_with(n, substeps, 2, STUDY_DAMPING)
+    reference_with(n, substeps, 2, SolverSettings::default().damping)
 }
 
 /// Rigid damping (Mueller et al. 2006, section 3.5) in `f64`: every free particle's velocity

@@ -121,7 +121,7 @@ fn the_adaptive_budget_meets_its_target_with_fewer_substeps_than_a_fixed_budget(
     // The crate's defaults (damping on), 2 iterations; the target must hold after every
     // frame of the 2 s run.
     let (n, target, fraction) = (32, 0.01, 1.0);
-    let fixed_settings = Budget::new(SolverMethod::Xpbd, 1, 2).settings_with_damping();
+    let fixed_settings = Budget::new(SolverMethod::Xpbd, 1, 2).settings();
     let fixed =
         fewest_fixed_substeps_for_strain(n, &fixed_settings, target, fraction, RUN_FRAMES, 32)
             .expect("some fixed budget meets 1%");
