@@ -95,8 +95,6 @@ pub struct Trajectory {
     pub corner: Vec<Vec3>,
     /// The centre vertex's position after each of those frames.
     pub center: Vec<Vec3>,
-    /// The centre of mass after each of those frames.
-    pub center_of_mass: Vec<Vec3>,
     /// Wall time of each frame, seconds.
     pub frame_seconds: Vec<f64>,
     /// Substeps each frame used.
@@ -144,10 +142,6 @@ pub fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> Trajectory {
             let x = &sim.state().positions;
             run.corner.push(x[scene.corner() as usize].into());
             run.center.push(x[scene.center() as usize].into());
-            run.center_of_mass.push(
-                sim.rigid_motion()
-                    .map_or(Vec3::NAN, |m| m.center_of_mass.into()),
-            );
         }
     }
     run
@@ -313,11 +307,6 @@ pub fn reference_with(n: u32, substeps: u32, iterations: u32, damping: f32) -> T
         run.substeps.push(substeps);
         run.corner.push(x[scene.corner() as usize].as_vec3());
         run.center.push(x[scene.center() as usize].as_vec3());
-        let (weighted, mass) = x
-            .iter()
-            .zip(&masses)
-            .fold((DVec3::ZERO, 0.0), |(s, m), (p, &mi)| (s + *p * mi, m + mi));
-        run.center_of_mass.push((weighted / mass).as_vec3());
     }
     let strain = model
         .edges
