@@ -93,6 +93,60 @@ impl IsometricPair {
     }
 }
 
+/// An isometric pair's factors for one step, which do not change within it: the inverse
+/// masses times the weights, and the inverse of the denominator. With them a projection is
+/// four multiply-adds and no division.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PreparedIsometric {
+    /// `w_i K_i`.
+    pub move_by: [f32; 4],
+    /// `1 / (sum_i w_i K_i^2 + alpha~)`, or 0 if no particle of the pair is free.
+    pub inverse: f32,
+    /// The pair's time-step-scaled compliance `alpha~` (already times `compliance_scale^2`).
+    pub alpha_tilde: f32,
+}
+
+impl PreparedIsometric {
+    /// The factors of `pair` for inverse masses `w` and the pair's time-step-scaled
+    /// compliance `alpha_tilde`.
+    pub fn new(pair: &IsometricPair, w: &[f32], alpha_tilde: f32) -> Self {
+        let k = pair.weights;
+        let ws = pair.particles.map(|i| w[i as usize]);
+        let weight =
+            ws[0] * k[0] * k[0] + ws[1] * k[1] * k[1] + ws[2] * k[2] * k[2] + ws[3] * k[3] * k[3];
+        Self {
+            move_by: std::array::from_fn(|i| ws[i] * k[i]),
+            inverse: if weight > 0.0 {
+                1.0 / (weight + alpha_tilde)
+            } else {
+                0.0
+            },
+            alpha_tilde,
+        }
+    }
+}
+
+/// Projects an isometric pair with its [`PreparedIsometric`] factors: `C = sum_i K_i x_i`
+/// towards zero, the accumulated multiplier `lambda` updated.
+#[inline(always)]
+pub fn project_isometric_prepared(
+    x: &mut [Vec3A],
+    pair: &IsometricPair,
+    prepared: &PreparedIsometric,
+    lambda: &mut Vec3A,
+) {
+    let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
+    let k = pair.weights;
+    let m = prepared.move_by;
+    let c = x[i0] * k[0] + x[i1] * k[1] + x[i2] * k[2] + x[i3] * k[3];
+    let dl = (-c - *lambda * prepared.alpha_tilde) * prepared.inverse;
+    *lambda += dl;
+    x[i0] += dl * m[0];
+    x[i1] += dl * m[1];
+    x[i2] += dl * m[2];
+    x[i3] += dl * m[3];
+}
+
 /// Projects an isometric pair: `C = sum_i K_i x_i` towards zero with the time-step-scaled
 /// compliance `alpha_tilde` (already multiplied by the pair's `compliance_scale^2`), the
 /// accumulated multiplier `lambda` updated.
@@ -104,21 +158,8 @@ pub fn project_isometric(
     alpha_tilde: f32,
     lambda: &mut Vec3A,
 ) {
-    let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
-    let k = pair.weights;
-    let ws = [w[i0], w[i1], w[i2], w[i3]];
-    let weight =
-        ws[0] * k[0] * k[0] + ws[1] * k[1] * k[1] + ws[2] * k[2] * k[2] + ws[3] * k[3] * k[3];
-    if weight <= 0.0 {
-        return;
-    }
-    let c = x[i0] * k[0] + x[i1] * k[1] + x[i2] * k[2] + x[i3] * k[3];
-    let dl = (-c - *lambda * alpha_tilde) / (weight + alpha_tilde);
-    *lambda += dl;
-    x[i0] += dl * (ws[0] * k[0]);
-    x[i1] += dl * (ws[1] * k[1]);
-    x[i2] += dl * (ws[2] * k[2]);
-    x[i3] += dl * (ws[3] * k[3]);
+    let prepared = PreparedIsometric::new(pair, w, alpha_tilde);
+    project_isometric_prepared(x, pair, &prepared, lambda);
 }
 
 #[cfg(test)]

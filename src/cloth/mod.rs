@@ -1,6 +1,7 @@
 //! The cloth core: model, state, constraints and the XPBD step, free of ECS types, and the
 //! Bevy plugin that drives it ([`plugin`]).
 
+pub mod batch;
 pub mod constraints;
 pub mod damping;
 pub mod garment;

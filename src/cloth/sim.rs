@@ -1,13 +1,14 @@
 //! [`ClothSim`]: one cloth's model, state, pins and solver scratch, and the XPBD step.
 
-use bevy::math::{Vec3, Vec3A};
+use bevy::math::{Vec3, Vec3A, Vec4};
 
+use super::batch::PairBatches;
 use super::constraints::{
     Plane, Projection, Tether, project_bending, project_distance, project_mutual_tether,
-    project_plane, project_tether,
+    project_plane,
 };
 use super::damping::{RigidMotion, damp_plain, damp_rigid};
-use super::isometric_bending::{IsometricPair, project_isometric};
+use super::isometric_bending::{IsometricPair, PreparedIsometric, project_isometric_prepared};
 use super::mass_spring::{SpringSet, auto_substeps};
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
@@ -16,7 +17,7 @@ use super::settings::{
     AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings,
 };
 use super::state::{ClothState, inverse_mass};
-use super::stretch_limits::{StretchLimit, project_stretch_limit, straight_line_limits};
+use super::stretch_limits::{StretchLimit, straight_line_limits};
 use super::volume::VolumeConstraint;
 use crate::collide::{Collider, Contact, ContactScratch};
 use crate::error::ClothError;
@@ -39,19 +40,6 @@ fn for_each_interleaved(len: usize, mut f: impl FnMut(usize)) {
         for stream in 0..STREAMS {
             f(i + stream * chunk);
         }
-    }
-}
-
-/// Projects the long-range attachments: the stretch limits (interleaved), then the tethers.
-#[inline(always)]
-fn project_long_range(limits: &[StretchLimit], tethers: &[Tether], x: &mut [Vec3A], w: &[f32]) {
-    for_each_interleaved(limits.len(), |k| {
-        if let Some(limit) = limits.get(k) {
-            project_stretch_limit(x, w, limit);
-        }
-    });
-    for tether in tethers {
-        project_tether(x, w, tether);
     }
 }
 
@@ -274,12 +262,23 @@ pub struct ClothSim {
     state: ClothState,
     pins: Vec<Pin>,
     tethers: Vec<Tether>,
+    /// `tethers` in batches of four.
+    tether_batches: PairBatches,
     stretch_limits: Vec<StretchLimit>,
+    /// `stretch_limits` in batches of four.
+    limit_batches: PairBatches,
     planes: Vec<Plane>,
+    /// Multipliers of the order-free (Jacobi) edge projection, one per edge.
     edge_lambdas: Vec<f32>,
+    /// The model's edges in batches of four, in their sorted order.
+    edge_batches: PairBatches,
+    /// Multipliers of `edge_batches`, one lane per edge.
+    edge_batch_lambdas: Vec<Vec4>,
     bend_lambdas: Vec<f32>,
     isometric_pairs: Vec<IsometricPair>,
     isometric_lambdas: Vec<Vec3A>,
+    /// The isometric pairs' factors for the current step.
+    isometric_prepared: Vec<PreparedIsometric>,
     /// The bending pairs that are not flat at rest (dihedral even with isometric bending);
     /// they share `bend_lambdas`.
     curved_pairs: Vec<BendingPair>,
@@ -324,6 +323,25 @@ impl ClothSim {
             .filter(|e| e.kind == EdgeKind::Structural)
             .collect();
         let stretch_limits = straight_line_limits(&model.rest_positions, &structural);
+        let limit_batches = PairBatches::new(
+            &stretch_limits
+                .iter()
+                .map(|l| l.particles)
+                .collect::<Vec<_>>(),
+            &stretch_limits.iter().map(|l| l.length).collect::<Vec<_>>(),
+            n,
+            true,
+        );
+        let edge_batches = PairBatches::new(
+            &model.edges.iter().map(|e| e.particles).collect::<Vec<_>>(),
+            &model
+                .edges
+                .iter()
+                .map(|e| e.rest_length)
+                .collect::<Vec<_>>(),
+            n,
+            true,
+        );
         // Edges and limits keep their sorted order: a lexicographic Gauss-Seidel sweep carries
         // a correction across the whole sheet in its direction, which a colour order does not
         // (measured on S1 at N = 64, 8 x 2, before the limits overlapped: max strain 1.35%
@@ -345,9 +363,14 @@ impl ClothSim {
         }
         Self {
             stretch_limits,
+            limit_batches,
             edge_lambdas: vec![0.0; model.edges.len()],
+            edge_batch_lambdas: vec![Vec4::ZERO; edge_batches.len()],
+            edge_batches,
+            tether_batches: PairBatches::default(),
             bend_lambdas: vec![0.0; model.bending_pairs.len()],
             isometric_lambdas: vec![Vec3A::ZERO; isometric_pairs.len()],
+            isometric_prepared: vec![PreparedIsometric::default(); isometric_pairs.len()],
             isometric_pairs,
             curved_pairs,
             contact_push: vec![0.0; n],
@@ -640,6 +663,16 @@ impl ClothSim {
         }
         // Consecutive tethers of different particles do not wait for each other.
         self.tethers.sort_by_key(|t| t.anchor);
+        self.tether_batches = PairBatches::new(
+            &self
+                .tethers
+                .iter()
+                .map(|t| [t.particle, t.anchor])
+                .collect::<Vec<_>>(),
+            &self.tethers.iter().map(|t| t.length).collect::<Vec<_>>(),
+            self.state.positions.len(),
+            false,
+        );
     }
 
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
@@ -672,6 +705,11 @@ impl ClothSim {
         if settings.volume.is_some() && self.volume.is_none() {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
+        // Inverse masses do not change within a step.
+        let w = &self.state.inverse_masses;
+        self.edge_batches.set_weights(w);
+        self.limit_batches.set_weights(w);
+        self.tether_batches.set_weights(w);
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
@@ -765,6 +803,17 @@ impl ClothSim {
             _ => None,
         };
         let damping_k = 1.0 - (-settings.damping * h).exp();
+        if let Some(alpha_tilde) = isometric {
+            let w = &self.state.inverse_masses;
+            for (pair, prepared) in self
+                .isometric_pairs
+                .iter()
+                .zip(&mut self.isometric_prepared)
+            {
+                let scale = pair.compliance_scale * pair.compliance_scale;
+                *prepared = PreparedIsometric::new(pair, w, alpha_tilde * scale);
+            }
+        }
         let ClothState {
             positions: x,
             previous_positions: x_prev,
@@ -794,7 +843,6 @@ impl ClothSim {
             if !colliders.is_empty() {
                 self.contacts.begin_substep(colliders, t_end);
             }
-            self.edge_lambdas.fill(0.0);
             self.bend_lambdas.fill(0.0);
             let mut volume = match (settings.volume, self.volume.as_mut()) {
                 (Some(v), Some(Ok(constraint))) => {
@@ -803,11 +851,17 @@ impl ClothSim {
                 }
                 _ => None,
             };
+            if volume.is_some() {
+                self.edge_lambdas.fill(0.0);
+            } else {
+                self.edge_batch_lambdas.fill(Vec4::ZERO);
+            }
             self.isometric_lambdas.fill(Vec3A::ZERO);
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
                 if settings.long_range_attachments {
-                    project_long_range(&self.stretch_limits, &self.tethers, x, w);
+                    self.limit_batches.project_limits(x);
+                    self.tether_batches.project_limits(x);
                     for tether in &self.contact_tethers {
                         project_mutual_tether(x, w, tether);
                     }
@@ -822,7 +876,8 @@ impl ClothSim {
                         &mut self.jacobi,
                     );
                 } else {
-                    project_edges(&self.model.edges, &mut self.edge_lambdas, x, w, stretch);
+                    self.edge_batches
+                        .project_distances(&mut self.edge_batch_lambdas, x, stretch);
                 }
                 if let Some((v, constraint)) = volume.as_mut() {
                     let alpha_tilde = match settings.method {
@@ -833,12 +888,14 @@ impl ClothSim {
                 }
                 // Bending is soft: once per substep.
                 if iteration == 0 {
-                    if let Some(alpha_tilde) = isometric {
-                        for (pair, lambda) in
-                            self.isometric_pairs.iter().zip(&mut self.isometric_lambdas)
+                    if isometric.is_some() {
+                        for ((pair, prepared), lambda) in self
+                            .isometric_pairs
+                            .iter()
+                            .zip(&self.isometric_prepared)
+                            .zip(&mut self.isometric_lambdas)
                         {
-                            let scale = pair.compliance_scale * pair.compliance_scale;
-                            project_isometric(x, w, pair, alpha_tilde * scale, lambda);
+                            project_isometric_prepared(x, pair, prepared, lambda);
                         }
                     }
                     let dihedral = if isometric.is_some() {
@@ -1004,7 +1061,8 @@ impl ClothSim {
                 };
                 for _ in 0..iterations {
                     if settings.long_range_attachments {
-                        project_long_range(&self.stretch_limits, &self.tethers, x, w);
+                        self.limit_batches.project_limits(x);
+                        self.tether_batches.project_limits(x);
                         for tether in &self.contact_tethers {
                             project_mutual_tether(x, w, tether);
                         }

@@ -1,0 +1,75 @@
+//! One Gauss-Seidel sweep of scene S1's edge distance constraints at N = 64 (12 033 edges)
+//! on the hanging cloth, three ways: scalar in sorted order, scalar as two interleaved
+//! streams (consecutive projections independent), and batched four-wide
+//! ([`PairBatches`]). Each iteration starts from the same positions.
+
+use bevy::math::{Vec3A, Vec4};
+use bevy_drape::cloth::SolverSettings;
+use bevy_drape::cloth::batch::PairBatches;
+use bevy_drape::cloth::constraints::{Projection, project_distance};
+use bevy_drape::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+fn edge_sweep(c: &mut Criterion) {
+    let mut sim = HangingCloth { n: 64 }.build();
+    for _ in 0..60 {
+        sim.step(&SolverSettings::default(), GRAVITY, 1.0 / FRAME_RATE);
+    }
+    let x0: Vec<Vec3A> = sim.state().positions.clone();
+    let w = sim.state().inverse_masses.clone();
+    let edges = &sim.model().edges;
+    let pairs: Vec<[u32; 2]> = edges.iter().map(|e| e.particles).collect();
+    let lengths: Vec<f32> = edges.iter().map(|e| e.rest_length).collect();
+    let projection = Projection::Xpbd { alpha_tilde: 0.0 };
+    let mut group = c.benchmark_group("edge_sweep_n64");
+    group.sample_size(30);
+    let mut x = x0.clone();
+    let mut lambdas = vec![0.0; pairs.len()];
+    group.bench_function("scalar_sorted", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&x0);
+            for ((p, l), lambda) in pairs.iter().zip(&lengths).zip(&mut lambdas) {
+                project_distance(&mut x, &w, *p, *l, projection, lambda);
+            }
+        })
+    });
+    let half = pairs.len().div_ceil(2);
+    group.bench_function("scalar_two_streams", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&x0);
+            for i in 0..half {
+                for k in [i, i + half] {
+                    if k < pairs.len() {
+                        project_distance(
+                            &mut x,
+                            &w,
+                            pairs[k],
+                            lengths[k],
+                            projection,
+                            &mut lambdas[k],
+                        );
+                    }
+                }
+            }
+        })
+    });
+    let mut batches = PairBatches::new(&pairs, &lengths, x0.len(), true);
+    batches.set_weights(&w);
+    let mut batch_lambdas = vec![Vec4::ZERO; batches.len()];
+    group.bench_function("batched", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&x0);
+            batches.project_distances(&mut batch_lambdas, &mut x, projection);
+        })
+    });
+    group.bench_function("copy_only", |b| b.iter(|| x.copy_from_slice(&x0)));
+    group.finish();
+}
+
+mod group {
+    #![allow(missing_docs)]
+    use super::*;
+    criterion_group!(benches, edge_sweep);
+}
+
+criterion_main!(group::benches);
