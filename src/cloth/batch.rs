@@ -57,10 +57,6 @@ pub struct Batch {
     pub wa: Vec4,
     /// The inverse masses of the `b` particles (zero for anchors that are only read).
     pub wb: Vec4,
-    /// Whether this batch reads a particle the previous batch moves (only where a list has
-    /// no other choice, as many pairs on one particle): the sweep then finishes the previous
-    /// batch before reading this one.
-    pub waits: bool,
 }
 
 impl Batch {
@@ -76,6 +72,11 @@ impl Batch {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PairBatches {
     batches: Vec<Batch>,
+    /// Per batch: whether it reads a particle the previous batch moves (only where a list
+    /// has no other choice, as many pairs on one particle); the sweep then finishes the
+    /// previous batch before reading this one. Kept apart from the batches, which stay at
+    /// 80 bytes.
+    waits: Vec<bool>,
     pairs: usize,
     /// One past the largest particle index the batches name.
     particles: usize,
@@ -104,6 +105,7 @@ impl PairBatches {
         let mut still_waiting: Vec<usize> = Vec::new();
         let mut next = 0;
         let mut batches = Vec::with_capacity(usable.len().div_ceil(LANES));
+        let mut batch_waits = Vec::with_capacity(usable.len().div_ceil(LANES));
         while next < usable.len() || !waiting.is_empty() {
             let id = batches.len() as u32 + SEPARATION;
             let mut lanes: Vec<usize> = Vec::with_capacity(LANES);
@@ -160,8 +162,8 @@ impl PairBatches {
                 length: Vec4::from_array(std::array::from_fn(|i| lengths[lane(i)])),
                 wa: Vec4::ZERO,
                 wb: Vec4::ZERO,
-                waits,
             });
+            batch_waits.push(waits);
         }
         let particles = batches
             .iter()
@@ -171,6 +173,7 @@ impl PairBatches {
             .unwrap_or(0);
         Self {
             batches,
+            waits: batch_waits,
             pairs: usable.len(),
             particles,
             moves_b,
@@ -204,6 +207,11 @@ impl PairBatches {
         &self.batches
     }
 
+    /// Per batch, whether it waits for the previous one (see the module documentation).
+    pub fn waits(&self) -> &[bool] {
+        &self.waits
+    }
+
     /// How many constraints the batches hold.
     pub fn pair_count(&self) -> usize {
         self.pairs
@@ -229,7 +237,7 @@ impl PairBatches {
         }
         // SAFETY: every index in the batches is below `self.particles` (`new`), and `x`
         // holds that many particles.
-        unsafe { lanes::sweep_distances(&self.batches, lambdas, x, projection) };
+        unsafe { lanes::sweep_distances(&self.batches, &self.waits, lambdas, x, projection) };
     }
 
     /// Projects every batch as the unilateral limits `|x_a - x_b| <= length` (stiffness 1,
@@ -243,9 +251,9 @@ impl PairBatches {
         // SAFETY: as in `project_distances`.
         unsafe {
             if self.moves_b {
-                lanes::sweep_limits::<true>(&self.batches, x);
+                lanes::sweep_limits::<true>(&self.batches, &self.waits, x);
             } else {
-                lanes::sweep_limits::<false>(&self.batches, x);
+                lanes::sweep_limits::<false>(&self.batches, &self.waits, x);
             }
         }
     }
@@ -260,6 +268,7 @@ impl PairBatches {
 #[inline(always)]
 fn pipelined<S>(
     batches: &[Batch],
+    waits: &[bool],
     mut start: impl FnMut(&Batch) -> S,
     mut finish: impl FnMut(usize, &Batch, S),
 ) {
@@ -269,7 +278,7 @@ fn pipelined<S>(
     let mut started = start(first);
     for next in 1..batches.len() {
         let current = next - 1;
-        if batches[next].waits {
+        if waits.get(next).copied().unwrap_or(true) {
             finish(current, &batches[current], started);
             started = start(&batches[next]);
         } else {
@@ -358,6 +367,7 @@ mod lanes {
     #[inline(always)]
     pub(super) unsafe fn sweep_distances(
         batches: &[Batch],
+        waits: &[bool],
         lambdas: &mut [Vec4],
         x: &mut [Vec3A],
         projection: Projection,
@@ -379,6 +389,7 @@ mod lanes {
         };
         pipelined(
             batches,
+            waits,
             |batch| {
                 // SAFETY: the caller's promise; `xp` is `x`, used by one closure at a time.
                 unsafe {
@@ -427,10 +438,15 @@ mod lanes {
     /// # Safety
     /// Every index of the batches is below `x.len()`.
     #[inline(always)]
-    pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(batches: &[Batch], x: &mut [Vec3A]) {
+    pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(
+        batches: &[Batch],
+        waits: &[bool],
+        x: &mut [Vec3A],
+    ) {
         let xp = x as *mut [Vec3A];
         pipelined(
             batches,
+            waits,
             |batch| {
                 // SAFETY: the caller's promise; baseline intrinsics; `xp` is `x`, used by one
                 // closure at a time.
@@ -495,6 +511,7 @@ mod lanes {
     /// Safe in fact; `unsafe` to match the SIMD kernels.
     pub(super) unsafe fn sweep_distances(
         batches: &[Batch],
+        _waits: &[bool],
         lambdas: &mut [Vec4],
         x: &mut [Vec3A],
         projection: Projection,
@@ -510,7 +527,11 @@ mod lanes {
     }
 
     /// Safe in fact; `unsafe` to match the SIMD kernels.
-    pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(batches: &[Batch], x: &mut [Vec3A]) {
+    pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(
+        batches: &[Batch],
+        _waits: &[bool],
+        x: &mut [Vec3A],
+    ) {
         for batch in batches {
             each_lane(batch, x, |k, pair, w| {
                 let length = batch.length[k];
@@ -643,7 +664,7 @@ mod tests {
         let touched = |b: &Batch| -> Vec<u32> { b.a.iter().chain(&b.b).copied().collect() };
         let mut waiting = 0;
         for k in 1..batches.len() {
-            if batches[k].waits {
+            if batched.waits()[k] {
                 waiting += 1;
                 continue;
             }
@@ -652,7 +673,7 @@ mod tests {
             for (j, before) in batches[earlier..k].iter().enumerate() {
                 // Only a batch that waits may follow one it depends on; further back, the
                 // separation holds unless a batch in between waited.
-                if batches[earlier + j + 1..=k].iter().any(|b| b.waits) {
+                if batched.waits()[earlier + j + 1..=k].iter().any(|&w| w) {
                     continue;
                 }
                 assert!(
