@@ -60,39 +60,59 @@ pub struct RigidMotion {
 
 impl RigidMotion {
     /// Fits the motion to the particles with a positive inverse mass; `None` if there are none.
+    ///
+    /// One pass: the sums are taken about the first free particle's position and velocity
+    /// (so that they stay of the cloth's own size in `f32`), then shifted to the centre of
+    /// mass: `L = sum m r x u - M c x v_c`, `sum m (r - c)(r - c)^T = sum m r r^T - M c c^T`.
     pub fn fit(x: &[Vec3A], v: &[Vec3A], inverse_masses: &[f32]) -> Option<Self> {
+        let first = inverse_masses.iter().position(|&w| w > 0.0)?;
+        let (x0, v0) = (*x.get(first)?, *v.get(first)?);
         let mut mass = 0.0;
-        let mut mx = Vec3A::ZERO;
-        let mut mv = Vec3A::ZERO;
+        let mut mr_sum = Vec3A::ZERO;
+        let mut mu_sum = Vec3A::ZERO;
+        let mut moment = Vec3A::ZERO;
+        // sum m r r^T, as its six distinct entries.
+        let (mut qxx, mut qyy, mut qzz, mut qxy, mut qxz, mut qyz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         for ((x, v), &w) in x.iter().zip(v).zip(inverse_masses) {
             if w > 0.0 {
                 let m = 1.0 / w;
+                let r = *x - x0;
+                let u = *v - v0;
+                let mr = r * m;
                 mass += m;
-                mx += *x * m;
-                mv += *v * m;
+                mr_sum += mr;
+                mu_sum += u * m;
+                moment += mr.cross(u);
+                qxx += mr.x * r.x;
+                qyy += mr.y * r.y;
+                qzz += mr.z * r.z;
+                qxy += mr.x * r.y;
+                qxz += mr.x * r.z;
+                qyz += mr.y * r.z;
             }
         }
         if mass <= 0.0 {
             return None;
         }
-        let center_of_mass = mx / mass;
-        let linear_velocity = mv / mass;
-        let mut angular_momentum = Vec3A::ZERO;
-        // Inertia tensor sum m (|r|^2 Id - r r^T), accumulated as its six distinct entries.
-        let (mut ixx, mut iyy, mut izz, mut ixy, mut ixz, mut iyz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for ((x, v), &w) in x.iter().zip(v).zip(inverse_masses) {
-            if w > 0.0 {
-                let m = 1.0 / w;
-                let r = *x - center_of_mass;
-                angular_momentum += r.cross(*v - linear_velocity) * m;
-                ixx += m * (r.y * r.y + r.z * r.z);
-                iyy += m * (r.x * r.x + r.z * r.z);
-                izz += m * (r.x * r.x + r.y * r.y);
-                ixy -= m * r.x * r.y;
-                ixz -= m * r.x * r.z;
-                iyz -= m * r.y * r.z;
-            }
-        }
+        let c = mr_sum / mass;
+        let vc = mu_sum / mass;
+        let center_of_mass = x0 + c;
+        let linear_velocity = v0 + vc;
+        let angular_momentum = moment - c.cross(vc) * mass;
+        // The second moments about the centre of mass, then the inertia tensor
+        // sum m (|r|^2 Id - r r^T).
+        let (cxx, cyy, czz) = (
+            qxx - mass * c.x * c.x,
+            qyy - mass * c.y * c.y,
+            qzz - mass * c.z * c.z,
+        );
+        let (cxy, cxz, cyz) = (
+            qxy - mass * c.x * c.y,
+            qxz - mass * c.x * c.z,
+            qyz - mass * c.y * c.z,
+        );
+        let (ixx, iyy, izz) = (cyy + czz, cxx + czz, cxx + cyy);
+        let (ixy, ixz, iyz) = (-cxy, -cxz, -cyz);
         let inertia = Mat3A::from_cols(
             Vec3A::new(ixx, ixy, ixz),
             Vec3A::new(ixy, iyy, iyz),
