@@ -53,7 +53,11 @@ fn edge_sweep(c: &mut Criterion) {
             }
         })
     });
-    let mut batches = PairBatches::new(&pairs, &lengths, x0.len(), true);
+    let mut batches = PairBatches::new(
+        pairs.iter().copied().zip(lengths.iter().copied()),
+        x0.len(),
+        true,
+    );
     batches.set_weights(&w);
     let mut batch_lambdas = vec![Vec4::ZERO; batches.len()];
     group.bench_function("batched", |b| {

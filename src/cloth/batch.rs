@@ -87,28 +87,32 @@ pub struct PairBatches {
 }
 
 impl PairBatches {
-    /// Batches `pairs` (particle indices) with their `lengths`, keeping the list's order as
+    /// Batches `pairs` (particle indices, each with its length), keeping the list's order as
     /// closely as batches allow. With `moves_b` false, the second particle of a pair is an
     /// anchor that is only read (a pin, as for tethers), so pairs may share it. Pairs with an
     /// index at or past `particle_count`, or with both ends the same particle, are left out
     /// (they constrain nothing). Inverse masses start at zero: call
     /// [`PairBatches::set_weights`] before projecting.
-    pub fn new(pairs: &[[u32; 2]], lengths: &[f32], particle_count: usize, moves_b: bool) -> Self {
-        let usable: Vec<usize> = (0..pairs.len().min(lengths.len()))
-            .filter(|&k| {
-                let [a, b] = pairs[k];
+    pub fn new(
+        pairs: impl IntoIterator<Item = ([u32; 2], f32)>,
+        particle_count: usize,
+        moves_b: bool,
+    ) -> Self {
+        let (pairs, lengths): (Vec<[u32; 2]>, Vec<f32>) = pairs
+            .into_iter()
+            .filter(|&([a, b], _)| {
                 a != b && (a as usize) < particle_count && (b as usize) < particle_count
             })
-            .collect();
+            .unzip();
         // The batch that last moved each particle; ids start at SEPARATION, so that a
         // particle never moved (0) is free.
         let mut moved = vec![0u32; particle_count];
         let mut waiting: Vec<usize> = Vec::new();
         let mut still_waiting: Vec<usize> = Vec::new();
         let mut next = 0;
-        let mut batches = Vec::with_capacity(usable.len().div_ceil(LANES));
-        let mut batch_waits = Vec::with_capacity(usable.len().div_ceil(LANES));
-        while next < usable.len() || !waiting.is_empty() {
+        let mut batches = Vec::with_capacity(pairs.len().div_ceil(LANES));
+        let mut batch_waits = Vec::with_capacity(pairs.len().div_ceil(LANES));
+        while next < pairs.len() || !waiting.is_empty() {
             let id = batches.len() as u32 + SEPARATION;
             let mut lanes: Vec<usize> = Vec::with_capacity(LANES);
             // A pair fits if neither of its particles was moved in this batch or the last
@@ -134,8 +138,8 @@ impl PairBatches {
                 }
             }
             let mut scanned = 0;
-            while lanes.len() < LANES && next < usable.len() && scanned < LOOK_AHEAD {
-                let k = usable[next];
+            while lanes.len() < LANES && next < pairs.len() && scanned < LOOK_AHEAD {
+                let k = next;
                 next += 1;
                 scanned += 1;
                 if !try_take(k, &mut lanes) {
@@ -176,7 +180,7 @@ impl PairBatches {
         Self {
             batches,
             waits: batch_waits,
-            pairs: usable.len(),
+            pairs: pairs.len(),
             particles,
             moves_b,
         }
@@ -595,6 +599,14 @@ mod tests {
         (positions, edges)
     }
 
+    /// Each pair with its length.
+    fn zipped<'a>(
+        pairs: &'a [[u32; 2]],
+        lengths: &'a [f32],
+    ) -> impl Iterator<Item = ([u32; 2], f32)> + 'a {
+        pairs.iter().copied().zip(lengths.iter().copied())
+    }
+
     /// The scalar sweep the batches stand for: `project(x, batch, k)` on every live lane, in
     /// batch order, from `x0`.
     fn scalar_reference(
@@ -628,7 +640,7 @@ mod tests {
     fn batches_hold_every_pair_once_and_no_batch_moves_a_particle_twice() {
         let (x, edges) = grid(20);
         let lengths = vec![0.1; edges.len()];
-        let batched = PairBatches::new(&edges, &lengths, x.len(), true);
+        let batched = PairBatches::new(zipped(&edges, &lengths), x.len(), true);
         let mut seen: Vec<[u32; 2]> = Vec::new();
         for batch in batched.batches() {
             let mut particles = Vec::new();
@@ -661,7 +673,7 @@ mod tests {
         let (x, mut pairs) = grid(12);
         pairs.extend((1..40).map(|k| [0, k]));
         let lengths = vec![0.1; pairs.len()];
-        let batched = PairBatches::new(&pairs, &lengths, x.len(), true);
+        let batched = PairBatches::new(zipped(&pairs, &lengths), x.len(), true);
         let batches = batched.batches();
         let touched = |b: &Batch| -> Vec<u32> { b.a.iter().chain(&b.b).copied().collect() };
         let mut waiting = 0;
@@ -705,7 +717,7 @@ mod tests {
             .chain((1..29).map(|k| [k, k + 1]))
             .collect();
         let lengths: Vec<f32> = (0..pairs.len()).map(|k| 0.3 + 0.01 * k as f32).collect();
-        let mut batched = PairBatches::new(&pairs, &lengths, x0.len(), true);
+        let mut batched = PairBatches::new(zipped(&pairs, &lengths), x0.len(), true);
         batched.set_weights(&w);
         let mut x = x0.clone();
         let mut lambdas = vec![Vec4::ZERO; batched.len()];
@@ -724,7 +736,7 @@ mod tests {
     fn batches_stay_close_to_the_list_order() {
         let (x, edges) = grid(20);
         let lengths = vec![0.1; edges.len()];
-        let batched = PairBatches::new(&edges, &lengths, x.len(), true);
+        let batched = PairBatches::new(zipped(&edges, &lengths), x.len(), true);
         let mut worst = 0usize;
         for (i, batch) in batched.batches().iter().enumerate() {
             for k in 0..LANES {
@@ -745,7 +757,7 @@ mod tests {
         let lengths: Vec<f32> = (0..edges.len())
             .map(|k| 0.08 + 0.01 * (k % 5) as f32)
             .collect();
-        let mut batched = PairBatches::new(&edges, &lengths, x0.len(), true);
+        let mut batched = PairBatches::new(zipped(&edges, &lengths), x0.len(), true);
         batched.set_weights(&w);
         for projection in [
             Projection::Xpbd { alpha_tilde: 0.0 },
@@ -794,7 +806,7 @@ mod tests {
         let lengths: Vec<f32> = (0..limits.len())
             .map(|k| 0.05 + 0.02 * (k % 7) as f32)
             .collect();
-        let mut batched = PairBatches::new(&limits, &lengths, x0.len(), true);
+        let mut batched = PairBatches::new(zipped(&limits, &lengths), x0.len(), true);
         batched.set_weights(&w);
         assert!(batched.pair_count() + 2 >= limits.len());
         let mut x = x0.clone();
@@ -825,7 +837,7 @@ mod tests {
                 }
             }
         }
-        let mut batched = PairBatches::new(&tethers, &tether_lengths, x0.len(), false);
+        let mut batched = PairBatches::new(zipped(&tethers, &tether_lengths), x0.len(), false);
         batched.set_weights(&w);
         assert!(
             batched.len() * LANES < tethers.len() + LANES,
@@ -851,7 +863,7 @@ mod tests {
     #[test]
     fn bad_pairs_are_left_out() {
         let pairs = [[0, 1], [2, 2], [1, 7], [3, 2]];
-        let mut batched = PairBatches::new(&pairs, &[1.0; 4], 4, true);
+        let mut batched = PairBatches::new(zipped(&pairs, &[1.0; 4]), 4, true);
         assert_eq!(batched.pair_count(), 2);
         let mut x = vec![Vec3A::ZERO, Vec3A::X * 2.0, Vec3A::Y, Vec3A::Z];
         let w = [1.0; 4];

@@ -324,21 +324,12 @@ impl ClothSim {
             .collect();
         let stretch_limits = straight_line_limits(&model.rest_positions, &structural);
         let limit_batches = PairBatches::new(
-            &stretch_limits
-                .iter()
-                .map(|l| l.particles)
-                .collect::<Vec<_>>(),
-            &stretch_limits.iter().map(|l| l.length).collect::<Vec<_>>(),
+            stretch_limits.iter().map(|l| (l.particles, l.length)),
             n,
             true,
         );
         let edge_batches = PairBatches::new(
-            &model.edges.iter().map(|e| e.particles).collect::<Vec<_>>(),
-            &model
-                .edges
-                .iter()
-                .map(|e| e.rest_length)
-                .collect::<Vec<_>>(),
+            model.edges.iter().map(|e| (e.particles, e.rest_length)),
             n,
             true,
         );
@@ -665,12 +656,9 @@ impl ClothSim {
         // Consecutive tethers of different particles do not wait for each other.
         self.tethers.sort_by_key(|t| t.anchor);
         self.tether_batches = PairBatches::new(
-            &self
-                .tethers
+            self.tethers
                 .iter()
-                .map(|t| [t.particle, t.anchor])
-                .collect::<Vec<_>>(),
-            &self.tethers.iter().map(|t| t.length).collect::<Vec<_>>(),
+                .map(|t| ([t.particle, t.anchor], t.length)),
             self.state.positions.len(),
             false,
         );
