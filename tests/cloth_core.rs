@@ -392,6 +392,36 @@ fn moving_pins_drag_the_cloth_and_reset_restores_the_start() {
 }
 
 #[test]
+fn pins_set_or_released_between_steps_hold_or_let_go() {
+    // The solver keeps per-step copies of the inverse masses; changing the pins between steps
+    // must reach every constraint.
+    let mut sim = free_grid(8);
+    let settings = SolverSettings::default();
+    for _ in 0..10 {
+        sim.step(&settings, GRAVITY, DT);
+    }
+    let corner = 0;
+    sim.set_pins(&[corner]).unwrap();
+    let held = sim.state().positions[corner as usize];
+    for _ in 0..60 {
+        sim.step(&settings, GRAVITY, DT);
+    }
+    assert_eq!(sim.state().positions[corner as usize], held);
+    // The rest of the cloth hangs below the corner, not falling away.
+    let com = sim.rigid_motion().unwrap().center_of_mass;
+    assert!(com.y < held.y && held.y - com.y < 1.0, "{com} below {held}");
+    assert!(sim.strain().max < 0.05, "{:?}", sim.strain());
+    // Released, the corner falls with the rest.
+    sim.set_pins(&[]).unwrap();
+    for _ in 0..30 {
+        sim.step(&settings, GRAVITY, DT);
+    }
+    let fell = held.y - sim.state().positions[corner as usize].y;
+    let free_fall = 0.5 * GRAVITY.length() * (30.0 * DT).powi(2);
+    assert!(fell > 0.5 * free_fall, "fell {fell} m");
+}
+
+#[test]
 fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
     let mut sim = free_grid(10);
     sim.set_planes(&[bevy_drape::cloth::Plane::ground(0.0)]);

@@ -243,7 +243,24 @@ impl PairBatches {
         }
         // SAFETY: every index in the batches is below `self.particles` (`new`), and `x`
         // holds that many particles.
-        unsafe { lanes::sweep_distances(&self.batches, &self.waits, lambdas, x, projection) };
+        unsafe {
+            match projection {
+                Projection::Xpbd { .. } => lanes::sweep_distances::<true>(
+                    &self.batches,
+                    &self.waits,
+                    lambdas,
+                    x,
+                    projection,
+                ),
+                Projection::Pbd { .. } => lanes::sweep_distances::<false>(
+                    &self.batches,
+                    &self.waits,
+                    lambdas,
+                    x,
+                    projection,
+                ),
+            }
+        };
     }
 
     /// Projects every batch as the unilateral limits `|x_a - x_b| <= length` (stiffness 1,
@@ -371,7 +388,7 @@ mod lanes {
     /// # Safety
     /// Every index of the batches is below `x.len()`, and `lambdas` has one entry per batch.
     #[inline(always)]
-    pub(super) unsafe fn sweep_distances(
+    pub(super) unsafe fn sweep_distances<const XPBD: bool>(
         batches: &[Batch],
         waits: &[bool],
         lambdas: &mut [Vec4],
@@ -380,9 +397,9 @@ mod lanes {
     ) {
         let xp = x as *mut [Vec3A];
         // XPBD: dl = (-C - alpha~ lambda) / (w + alpha~); PBD: dl = -k C / w, no multipliers.
-        let (stiffness, alpha_tilde, accumulate) = match projection {
-            Projection::Xpbd { alpha_tilde } => (1.0, alpha_tilde, true),
-            Projection::Pbd { stiffness } => (stiffness, 0.0, false),
+        let (stiffness, alpha_tilde) = match projection {
+            Projection::Xpbd { alpha_tilde } => (1.0, alpha_tilde),
+            Projection::Pbd { stiffness } => (stiffness, 0.0),
         };
         // SAFETY: baseline intrinsics.
         let (k_stiffness, at, eps, zero) = unsafe {
@@ -406,16 +423,16 @@ mod lanes {
             |k, batch, (d, len)| {
                 // SAFETY: the caller's promise; baseline intrinsics; `xp` as above.
                 unsafe {
-                    let lambda = lambdas.get_unchecked_mut(k);
                     let (wa, wb) = (__m128::from(batch.wa), __m128::from(batch.wb));
                     let rest = __m128::from(batch.length);
                     let weight = _mm_add_ps(wa, wb);
-                    let lam = __m128::from(*lambda);
                     let c = _mm_sub_ps(len, rest);
-                    let num = _mm_sub_ps(
-                        zero,
-                        _mm_add_ps(_mm_mul_ps(k_stiffness, c), _mm_mul_ps(at, lam)),
-                    );
+                    let num = if XPBD {
+                        let lam = __m128::from(*lambdas.get_unchecked(k));
+                        _mm_sub_ps(zero, _mm_add_ps(c, _mm_mul_ps(at, lam)))
+                    } else {
+                        _mm_sub_ps(zero, _mm_mul_ps(k_stiffness, c))
+                    };
                     // Lanes with no free particle, or with the two particles at one place,
                     // do nothing.
                     let active = _mm_and_ps(
@@ -427,8 +444,9 @@ mod lanes {
                         active,
                         _mm_div_ps(num, _mm_mul_ps(_mm_add_ps(weight, at), len)),
                     );
-                    if accumulate {
-                        *lambda = Vec4::from(_mm_add_ps(lam, _mm_mul_ps(s, len)));
+                    if XPBD {
+                        let lambda = lambdas.get_unchecked_mut(k);
+                        *lambda = Vec4::from(_mm_add_ps(__m128::from(*lambda), _mm_mul_ps(s, len)));
                     }
                     let x = &mut *xp;
                     move_along(x, batch.a, &d, _mm_mul_ps(s, wa));
@@ -514,8 +532,9 @@ mod lanes {
         }
     }
 
-    /// Safe in fact; `unsafe` to match the SIMD kernels.
-    pub(super) unsafe fn sweep_distances(
+    /// Safe in fact; `unsafe` to match the SIMD kernels. `XPBD` only matches their
+    /// signature: the scalar projection reads the method from `projection`.
+    pub(super) unsafe fn sweep_distances<const XPBD: bool>(
         batches: &[Batch],
         _waits: &[bool],
         lambdas: &mut [Vec4],

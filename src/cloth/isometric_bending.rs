@@ -93,58 +93,87 @@ impl IsometricPair {
     }
 }
 
-/// An isometric pair's factors for one step, which do not change within it: the inverse
-/// masses times the weights, and the inverse of the denominator. With them a projection is
-/// four multiply-adds and no division.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// Isometric pairs ready for their one projection per substep.
+///
+/// Bending is projected once per substep (see [`super::ClothSim::step`]), so its XPBD
+/// multiplier is zero whenever it is projected: the step is `dl = -C / (sum_i w_i K_i^2 +
+/// alpha~)` and `x_i += w_i K_i dl`, which with `g_i = -w_i K_i / (sum_j w_j K_j^2 + alpha~)`
+/// is `x_i += g_i C`. The factors `g_i` depend only on the inverse masses and `alpha~`, so
+/// they are computed once ([`PreparedIsometric::prepare`]) and a projection is twelve
+/// multiply-adds: no division and no multiplier to store.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct PreparedIsometric {
-    /// `w_i K_i`.
-    pub move_by: [f32; 4],
-    /// `1 / (sum_i w_i K_i^2 + alpha~)`, or 0 if no particle of the pair is free.
-    pub inverse: f32,
-    /// The pair's time-step-scaled compliance `alpha~` (already times `compliance_scale^2`).
-    pub alpha_tilde: f32,
+    pairs: Vec<PreparedPair>,
+    /// One more than the largest particle index of `pairs`.
+    bound: usize,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct PreparedPair {
+    particles: [u32; 4],
+    weights: [f32; 4],
+    /// `g_i`.
+    move_by: [f32; 4],
 }
 
 impl PreparedIsometric {
-    /// The factors of `pair` for inverse masses `w` and the pair's time-step-scaled
-    /// compliance `alpha_tilde`.
-    pub fn new(pair: &IsometricPair, w: &[f32], alpha_tilde: f32) -> Self {
-        let k = pair.weights;
-        let ws = pair.particles.map(|i| w[i as usize]);
-        let weight =
-            ws[0] * k[0] * k[0] + ws[1] * k[1] * k[1] + ws[2] * k[2] * k[2] + ws[3] * k[3] * k[3];
-        Self {
-            move_by: std::array::from_fn(|i| ws[i] * k[i]),
-            inverse: if weight > 0.0 {
-                1.0 / (weight + alpha_tilde)
+    /// Computes the factors of `pairs` for inverse masses `w` and the time-step-scaled
+    /// compliance `alpha_tilde` (each pair's is `alpha_tilde` times its `compliance_scale^2`).
+    /// A pair with no free particle, or with a particle `w` does not hold, does nothing.
+    pub fn prepare(&mut self, pairs: &[IsometricPair], w: &[f32], alpha_tilde: f32) {
+        self.pairs.clear();
+        self.bound = 0;
+        for pair in pairs {
+            let k = pair.weights;
+            if pair.particles.iter().any(|&i| i as usize >= w.len()) {
+                continue;
+            }
+            let ws = pair.particles.map(|i| w[i as usize]);
+            let weight: f32 = (0..4).map(|i| ws[i] * k[i] * k[i]).sum();
+            let at = alpha_tilde * pair.compliance_scale * pair.compliance_scale;
+            let inverse = if weight > 0.0 {
+                1.0 / (weight + at)
             } else {
                 0.0
-            },
-            alpha_tilde,
+            };
+            let move_by = std::array::from_fn(|i| -ws[i] * k[i] * inverse);
+            if !move_by.iter().all(|g: &f32| g.is_finite()) {
+                continue;
+            }
+            self.bound = self
+                .bound
+                .max(pair.particles.iter().max().map_or(0, |&i| i as usize + 1));
+            self.pairs.push(PreparedPair {
+                particles: pair.particles,
+                weights: k,
+                move_by,
+            });
         }
     }
-}
 
-/// Projects an isometric pair with its [`PreparedIsometric`] factors: `C = sum_i K_i x_i`
-/// towards zero, the accumulated multiplier `lambda` updated.
-#[inline(always)]
-pub fn project_isometric_prepared(
-    x: &mut [Vec3A],
-    pair: &IsometricPair,
-    prepared: &PreparedIsometric,
-    lambda: &mut Vec3A,
-) {
-    let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
-    let k = pair.weights;
-    let m = prepared.move_by;
-    let c = x[i0] * k[0] + x[i1] * k[1] + x[i2] * k[2] + x[i3] * k[3];
-    let dl = (-c - *lambda * prepared.alpha_tilde) * prepared.inverse;
-    *lambda += dl;
-    x[i0] += dl * m[0];
-    x[i1] += dl * m[1];
-    x[i2] += dl * m[2];
-    x[i3] += dl * m[3];
+    /// Projects every pair once, in order, from a zero multiplier. Does nothing if `x` is
+    /// shorter than the inverse masses the pairs were prepared with.
+    pub fn project(&self, x: &mut [Vec3A]) {
+        if x.len() < self.bound {
+            return;
+        }
+        for pair in &self.pairs {
+            let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
+            let k = pair.weights;
+            let g = pair.move_by;
+            // SAFETY: every index is below `self.bound` (`prepare`), which `x` holds.
+            unsafe {
+                let c = *x.get_unchecked(i0) * k[0]
+                    + *x.get_unchecked(i1) * k[1]
+                    + *x.get_unchecked(i2) * k[2]
+                    + *x.get_unchecked(i3) * k[3];
+                *x.get_unchecked_mut(i0) += c * g[0];
+                *x.get_unchecked_mut(i1) += c * g[1];
+                *x.get_unchecked_mut(i2) += c * g[2];
+                *x.get_unchecked_mut(i3) += c * g[3];
+            }
+        }
+    }
 }
 
 /// Projects an isometric pair: `C = sum_i K_i x_i` towards zero with the time-step-scaled
@@ -158,8 +187,20 @@ pub fn project_isometric(
     alpha_tilde: f32,
     lambda: &mut Vec3A,
 ) {
-    let prepared = PreparedIsometric::new(pair, w, alpha_tilde);
-    project_isometric_prepared(x, pair, &prepared, lambda);
+    let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
+    let k = pair.weights;
+    let weight =
+        w[i0] * k[0] * k[0] + w[i1] * k[1] * k[1] + w[i2] * k[2] * k[2] + w[i3] * k[3] * k[3];
+    if weight <= 0.0 {
+        return;
+    }
+    let c = x[i0] * k[0] + x[i1] * k[1] + x[i2] * k[2] + x[i3] * k[3];
+    let dl = (-c - *lambda * alpha_tilde) / (weight + alpha_tilde);
+    *lambda += dl;
+    x[i0] += dl * (w[i0] * k[0]);
+    x[i1] += dl * (w[i1] * k[1]);
+    x[i2] += dl * (w[i2] * k[2]);
+    x[i3] += dl * (w[i3] * k[3]);
 }
 
 #[cfg(test)]
@@ -204,6 +245,35 @@ mod tests {
             let ratio = (c / iso.compliance_scale) / theta.abs();
             assert!((ratio - 1.0).abs() < 0.02, "angle {angle}: ratio {ratio}");
         }
+    }
+
+    #[test]
+    fn a_prepared_projection_is_the_first_xpbd_projection() {
+        let rest = pair();
+        let iso = IsometricPair::new([0, 1, 2, 3], rest).unwrap();
+        // Folded, one particle pinned, the others of different masses.
+        let mut folded = rest.map(Vec3A::from);
+        folded[2].y += 0.2;
+        let w = [0.0, 2.0, 1.0, 0.5];
+        let alpha_tilde = 0.3;
+        let mut general = folded;
+        let mut lambda = Vec3A::ZERO;
+        let at = alpha_tilde * iso.compliance_scale * iso.compliance_scale;
+        project_isometric(&mut general, &w, &iso, at, &mut lambda);
+        let mut prepared = PreparedIsometric::default();
+        // A pair naming a particle `w` does not hold is left out.
+        let outside = IsometricPair {
+            particles: [0, 1, 2, 9],
+            ..iso
+        };
+        prepared.prepare(&[iso, outside], &w, alpha_tilde);
+        let mut fast = folded;
+        prepared.project(&mut fast);
+        for (a, b) in fast.iter().zip(&general) {
+            assert!(a.distance(*b) < 1e-6, "{a} {b}");
+        }
+        assert_eq!(fast[0], folded[0]);
+        assert!(fast[2].distance(folded[2]) > 1e-3, "the fold was corrected");
     }
 
     #[test]

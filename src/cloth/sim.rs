@@ -8,7 +8,7 @@ use super::constraints::{
     project_plane,
 };
 use super::damping::{RigidMotion, damp_plain, damp_rigid};
-use super::isometric_bending::{IsometricPair, PreparedIsometric, project_isometric_prepared};
+use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::{SpringSet, auto_substeps};
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
@@ -274,13 +274,13 @@ pub struct ClothSim {
     edge_batches: PairBatches,
     /// Multipliers of `edge_batches`, one lane per edge.
     edge_batch_lambdas: Vec<Vec4>,
-    bend_lambdas: Vec<f32>,
     isometric_pairs: Vec<IsometricPair>,
-    isometric_lambdas: Vec<Vec3A>,
-    /// The isometric pairs' factors for the current step.
-    isometric_prepared: Vec<PreparedIsometric>,
-    /// The bending pairs that are not flat at rest (dihedral even with isometric bending);
-    /// they share `bend_lambdas`.
+    /// The isometric pairs' factors for `prepared_for`.
+    isometric_prepared: PreparedIsometric,
+    /// The inverse masses (bits) the batches' weights and `isometric_prepared` were made
+    /// with, and the bending `alpha~` of the latter: they are made again when either changes.
+    prepared_for: (Vec<u32>, u32),
+    /// The bending pairs that are not flat at rest (dihedral even with isometric bending).
     curved_pairs: Vec<BendingPair>,
     contact_push: Vec<f32>,
     springs: Option<SpringScratch>,
@@ -360,9 +360,8 @@ impl ClothSim {
             edge_batch_lambdas: vec![Vec4::ZERO; edge_batches.len()],
             edge_batches,
             tether_batches: PairBatches::default(),
-            bend_lambdas: vec![0.0; model.bending_pairs.len()],
-            isometric_lambdas: vec![Vec3A::ZERO; isometric_pairs.len()],
-            isometric_prepared: vec![PreparedIsometric::default(); isometric_pairs.len()],
+            isometric_prepared: PreparedIsometric::default(),
+            prepared_for: (Vec::new(), f32::NAN.to_bits()),
             isometric_pairs,
             curved_pairs,
             contact_push: vec![0.0; n],
@@ -662,6 +661,7 @@ impl ClothSim {
             self.state.positions.len(),
             false,
         );
+        self.tether_batches.set_weights(&self.state.inverse_masses);
     }
 
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
@@ -694,11 +694,7 @@ impl ClothSim {
         if settings.volume.is_some() && self.volume.is_none() {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
-        // Inverse masses do not change within a step.
-        let w = &self.state.inverse_masses;
-        self.edge_batches.set_weights(w);
-        self.limit_batches.set_weights(w);
-        self.tether_batches.set_weights(w);
+        self.sync_weights();
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
@@ -712,6 +708,21 @@ impl ClothSim {
         }
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
+        }
+    }
+
+    /// Copies the inverse masses into the batches if they changed since the last step (they
+    /// do not change within a step), and marks the bending factors for remaking.
+    fn sync_weights(&mut self) {
+        let w = &self.state.inverse_masses;
+        let (seen, bend_alpha) = &mut self.prepared_for;
+        if !seen.iter().copied().eq(w.iter().map(|m| m.to_bits())) {
+            self.edge_batches.set_weights(w);
+            self.limit_batches.set_weights(w);
+            self.tether_batches.set_weights(w);
+            seen.clear();
+            seen.extend(w.iter().map(|m| m.to_bits()));
+            *bend_alpha = f32::NAN.to_bits();
         }
     }
 
@@ -791,17 +802,22 @@ impl ClothSim {
             // Plain PBD has no compliance to calibrate: it keeps the dihedral form.
             _ => None,
         };
+        // With zero compliance an XPBD step is PBD's with stiffness 1: the batched edges then
+        // skip their multipliers.
+        let batch_stretch = match stretch {
+            Projection::Xpbd { alpha_tilde: 0.0 } => Projection::Pbd { stiffness: 1.0 },
+            other => other,
+        };
         let damping_k = 1.0 - (-settings.damping * h).exp();
-        if let Some(alpha_tilde) = isometric {
-            let w = &self.state.inverse_masses;
-            for (pair, prepared) in self
-                .isometric_pairs
-                .iter()
-                .zip(&mut self.isometric_prepared)
-            {
-                let scale = pair.compliance_scale * pair.compliance_scale;
-                *prepared = PreparedIsometric::new(pair, w, alpha_tilde * scale);
-            }
+        if let Some(alpha_tilde) = isometric
+            && self.prepared_for.1 != alpha_tilde.to_bits()
+        {
+            self.isometric_prepared.prepare(
+                &self.isometric_pairs,
+                &self.state.inverse_masses,
+                alpha_tilde,
+            );
+            self.prepared_for.1 = alpha_tilde.to_bits();
         }
         let ClothState {
             positions: x,
@@ -832,7 +848,6 @@ impl ClothSim {
             if !colliders.is_empty() {
                 self.contacts.begin_substep(colliders, t_end);
             }
-            self.bend_lambdas.fill(0.0);
             let mut volume = match (settings.volume, self.volume.as_mut()) {
                 (Some(v), Some(Ok(constraint))) => {
                     constraint.reset_multiplier();
@@ -842,10 +857,9 @@ impl ClothSim {
             };
             if volume.is_some() {
                 self.edge_lambdas.fill(0.0);
-            } else {
+            } else if matches!(batch_stretch, Projection::Xpbd { .. }) {
                 self.edge_batch_lambdas.fill(Vec4::ZERO);
             }
-            self.isometric_lambdas.fill(Vec3A::ZERO);
             self.contact_push.fill(0.0);
             for iteration in 0..iterations {
                 if settings.long_range_attachments {
@@ -865,8 +879,11 @@ impl ClothSim {
                         &mut self.jacobi,
                     );
                 } else {
-                    self.edge_batches
-                        .project_distances(&mut self.edge_batch_lambdas, x, stretch);
+                    self.edge_batches.project_distances(
+                        &mut self.edge_batch_lambdas,
+                        x,
+                        batch_stretch,
+                    );
                 }
                 if let Some((v, constraint)) = volume.as_mut() {
                     let alpha_tilde = match settings.method {
@@ -875,25 +892,20 @@ impl ClothSim {
                     };
                     constraint.project(x, w, v.pressure, alpha_tilde);
                 }
-                // Bending is soft: once per substep.
+                // Bending is soft: once per substep, so its multipliers start at zero each
+                // time and need no storing.
                 if iteration == 0 {
                     if isometric.is_some() {
-                        for ((pair, prepared), lambda) in self
-                            .isometric_pairs
-                            .iter()
-                            .zip(&self.isometric_prepared)
-                            .zip(&mut self.isometric_lambdas)
-                        {
-                            project_isometric_prepared(x, pair, prepared, lambda);
-                        }
+                        self.isometric_prepared.project(x);
                     }
                     let dihedral = if isometric.is_some() {
                         &self.curved_pairs
                     } else {
                         &self.model.bending_pairs
                     };
-                    for (pair, lambda) in dihedral.iter().zip(&mut self.bend_lambdas) {
-                        project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
+                    for pair in dihedral {
+                        let mut lambda = 0.0;
+                        project_bending(x, w, pair.particles, pair.rest_angle, bend, &mut lambda);
                     }
                 }
                 project_planes(
@@ -982,6 +994,7 @@ impl ClothSim {
             return;
         }
         self.spring_scratch();
+        self.sync_weights();
         let Some(springs) = self.springs.as_mut() else {
             return;
         };
