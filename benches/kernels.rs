@@ -1,7 +1,8 @@
 //! One Gauss-Seidel sweep of scene S1's edge distance constraints at N = 64 (12 033 edges)
 //! on the hanging cloth, three ways: scalar in sorted order, scalar as two interleaved
 //! streams (consecutive projections independent), and batched four-wide
-//! ([`PairBatches`]). Each iteration starts from the same positions.
+//! ([`PairBatches`]); then one batched sweep of its stretch limits and of its tethers. Each
+//! iteration starts from the same positions.
 
 use bevy::math::{Vec3A, Vec4};
 use bevy_drape::cloth::SolverSettings;
@@ -67,6 +68,37 @@ fn edge_sweep(c: &mut Criterion) {
         })
     });
     group.bench_function("copy_only", |b| b.iter(|| x.copy_from_slice(&x0)));
+    group.finish();
+
+    // The long-range constraints of the same cloth: stretch limits and tethers.
+    let mut limits = PairBatches::new(
+        sim.stretch_limits().iter().map(|l| (l.particles, l.length)),
+        x0.len(),
+        true,
+    );
+    limits.set_weights(&w);
+    let mut tethers = PairBatches::new(
+        sim.tethers()
+            .iter()
+            .map(|t| ([t.particle, t.anchor], t.length)),
+        x0.len(),
+        false,
+    );
+    tethers.set_weights(&w);
+    let mut group = c.benchmark_group("long_range_sweep_n64");
+    group.sample_size(30);
+    group.bench_function("limits_batched", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&x0);
+            limits.project_limits(&mut x);
+        })
+    });
+    group.bench_function("tethers_batched", |b| {
+        b.iter(|| {
+            x.copy_from_slice(&x0);
+            tethers.project_limits(&mut x);
+        })
+    });
     group.finish();
 }
 

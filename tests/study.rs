@@ -142,7 +142,7 @@ fn the_adaptive_budget_meets_its_target_with_fewer_substeps_than_a_fixed_budget(
 }
 
 #[test]
-fn the_adaptive_count_rises_at_once_and_falls_slowly_within_its_bounds() {
+fn the_adaptive_count_rises_at_once_and_falls_after_calm_steps_within_its_bounds() {
     let budget = AdaptiveSubsteps {
         target_strain: 0.01,
         min_substeps: 2,
@@ -157,7 +157,12 @@ fn the_adaptive_count_rises_at_once_and_falls_slowly_within_its_bounds() {
     for _ in 0..100 {
         assert_eq!(budget.next(4, 0.008, &mut calm), 4);
     }
-    // Below it, one fewer after CALM_STEPS steps in a row.
+    // Below it, 1 + grow times fewer (at least one fewer) after CALM_STEPS steps in a row.
+    let mut count = 9;
+    for _ in 0..budget.calm_steps {
+        count = budget.next(count, 0.001, &mut calm);
+    }
+    assert_eq!(count, 6);
     let mut count = 4;
     for _ in 0..budget.calm_steps {
         count = budget.next(count, 0.001, &mut calm);

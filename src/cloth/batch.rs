@@ -49,10 +49,11 @@ pub const SEPARATION: u32 = 4;
 /// stores the same values).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Batch {
-    /// The first particle of each lane (always moved).
-    pub a: [u32; LANES],
-    /// The second particle of each lane.
-    pub b: [u32; LANES],
+    /// The first particle of each lane (always moved), as the byte offset of its position
+    /// (index times [`POSITION_BYTES`]): the kernels address a particle in one instruction.
+    a_at: [u32; LANES],
+    /// The second particle of each lane, as a byte offset.
+    b_at: [u32; LANES],
     /// The rest length (distance constraints) or largest length (limits) of each lane.
     pub length: Vec4,
     /// The inverse masses of the `a` particles, from [`PairBatches::set_weights`].
@@ -61,11 +62,29 @@ pub struct Batch {
     pub wb: Vec4,
 }
 
+/// The size of one position (`Vec3A`), bytes.
+pub const POSITION_BYTES: u32 = std::mem::size_of::<Vec3A>() as u32;
+
+/// Particles a batch can name: their byte offsets fit in a `u32`.
+pub const MAX_PARTICLES: usize = (u32::MAX / POSITION_BYTES) as usize;
+
 impl Batch {
+    /// The first particle of each lane (always moved).
+    #[inline(always)]
+    pub fn a(&self) -> [u32; LANES] {
+        self.a_at.map(|at| at / POSITION_BYTES)
+    }
+
+    /// The second particle of each lane (moved, or an anchor that is only read).
+    #[inline(always)]
+    pub fn b(&self) -> [u32; LANES] {
+        self.b_at.map(|at| at / POSITION_BYTES)
+    }
+
     /// Whether lane `k` repeats lane 0 to fill the batch.
     #[inline(always)]
     pub fn is_padding(&self, k: usize) -> bool {
-        k > 0 && self.a[k] == self.a[0] && self.b[k] == self.b[0]
+        k > 0 && self.a_at[k] == self.a_at[0] && self.b_at[k] == self.b_at[0]
     }
 }
 
@@ -90,14 +109,15 @@ impl PairBatches {
     /// Batches `pairs` (particle indices, each with its length), keeping the list's order as
     /// closely as batches allow. With `moves_b` false, the second particle of a pair is an
     /// anchor that is only read (a pin, as for tethers), so pairs may share it. Pairs with an
-    /// index at or past `particle_count`, or with both ends the same particle, are left out
-    /// (they constrain nothing). Inverse masses start at zero: call
+    /// index at or past `particle_count` (or [`MAX_PARTICLES`]), or with both ends the same
+    /// particle, are left out (they constrain nothing). Inverse masses start at zero: call
     /// [`PairBatches::set_weights`] before projecting.
     pub fn new(
         pairs: impl IntoIterator<Item = ([u32; 2], f32)>,
         particle_count: usize,
         moves_b: bool,
     ) -> Self {
+        let particle_count = particle_count.min(MAX_PARTICLES);
         let (pairs, lengths): (Vec<[u32; 2]>, Vec<f32>) = pairs
             .into_iter()
             .filter(|&([a, b], _)| {
@@ -163,8 +183,8 @@ impl PairBatches {
             let first = lanes[0];
             let lane = |i: usize| lanes.get(i).copied().unwrap_or(first);
             batches.push(Batch {
-                a: std::array::from_fn(|i| pairs[lane(i)][0]),
-                b: std::array::from_fn(|i| pairs[lane(i)][1]),
+                a_at: std::array::from_fn(|i| pairs[lane(i)][0] * POSITION_BYTES),
+                b_at: std::array::from_fn(|i| pairs[lane(i)][1] * POSITION_BYTES),
                 length: Vec4::from_array(std::array::from_fn(|i| lengths[lane(i)])),
                 wa: Vec4::ZERO,
                 wb: Vec4::ZERO,
@@ -173,8 +193,8 @@ impl PairBatches {
         }
         let particles = batches
             .iter()
-            .flat_map(|b| b.a.iter().chain(&b.b))
-            .map(|&i| i as usize + 1)
+            .flat_map(|b| b.a().into_iter().chain(b.b()))
+            .map(|i| i as usize + 1)
             .max()
             .unwrap_or(0);
         Self {
@@ -195,10 +215,11 @@ impl PairBatches {
         for batch in &mut self.batches {
             // Padding lanes get no weight, so that they move nothing.
             let live: [bool; LANES] = std::array::from_fn(|k| !batch.is_padding(k));
-            let wa = std::array::from_fn(|k| if live[k] { w[batch.a[k] as usize] } else { 0.0 });
+            let (a, b) = (batch.a(), batch.b());
+            let wa = std::array::from_fn(|k| if live[k] { w[a[k] as usize] } else { 0.0 });
             let wb = std::array::from_fn(|k| {
                 if live[k] && self.moves_b {
-                    w[batch.b[k] as usize]
+                    w[b[k] as usize]
                 } else {
                     0.0
                 }
@@ -331,20 +352,25 @@ mod lanes {
     use super::{Batch, LANES, pipelined};
     use crate::cloth::constraints::Projection;
 
+    /// The position at byte offset `at` in `x`.
+    ///
+    /// # Safety
+    /// `at / POSITION_BYTES` is below `x.len()` (offsets are multiples of it).
+    #[inline(always)]
+    unsafe fn at(x: *const [Vec3A], at: u32) -> *mut Vec3A {
+        // SAFETY: the caller's promise.
+        unsafe { x.cast::<u8>().add(at as usize).cast::<Vec3A>().cast_mut() }
+    }
+
     /// `x[a_k] - x[b_k]` for each lane, and the squared lengths as four lanes.
     ///
     /// # Safety
-    /// Every index of `batch` is below `x.len()`.
+    /// Every particle of `batch` is in `x`.
     #[inline(always)]
     unsafe fn differences(x: &[Vec3A], batch: &Batch) -> ([__m128; LANES], __m128) {
         let d: [__m128; LANES] = std::array::from_fn(|k| {
             // SAFETY: the caller's promise.
-            let (a, b) = unsafe {
-                (
-                    *x.get_unchecked(batch.a[k] as usize),
-                    *x.get_unchecked(batch.b[k] as usize),
-                )
-            };
+            let (a, b) = unsafe { (*at(x, batch.a_at[k]), *at(x, batch.b_at[k])) };
             __m128::from(a - b)
         });
         // SAFETY: baseline intrinsics (module documentation).
@@ -362,12 +388,12 @@ mod lanes {
         (d, len_sq)
     }
 
-    /// `x[idx_k] += d_k * f_k` for each lane.
+    /// `x[p_k] += d_k * f_k` for each lane, with `p_k` at byte offset `offsets[k]`.
     ///
     /// # Safety
-    /// Every index of `idx` is below `x.len()`.
+    /// Every offset names a particle in `x`.
     #[inline(always)]
-    unsafe fn move_along(x: &mut [Vec3A], idx: [u32; LANES], d: &[__m128; LANES], f: __m128) {
+    unsafe fn move_along(x: &mut [Vec3A], offsets: [u32; LANES], d: &[__m128; LANES], f: __m128) {
         // SAFETY: baseline intrinsics (module documentation).
         let f = unsafe {
             [
@@ -380,7 +406,7 @@ mod lanes {
         for k in 0..LANES {
             // SAFETY: the caller's promise; baseline intrinsics.
             unsafe {
-                *x.get_unchecked_mut(idx[k] as usize) += Vec3A::from(_mm_mul_ps(d[k], f[k]));
+                *at(x, offsets[k]) += Vec3A::from(_mm_mul_ps(d[k], f[k]));
             }
         }
     }
@@ -449,8 +475,8 @@ mod lanes {
                         *lambda = Vec4::from(_mm_add_ps(__m128::from(*lambda), _mm_mul_ps(s, len)));
                     }
                     let x = &mut *xp;
-                    move_along(x, batch.a, &d, _mm_mul_ps(s, wa));
-                    move_along(x, batch.b, &d, _mm_sub_ps(zero, _mm_mul_ps(s, wb)));
+                    move_along(x, batch.a_at, &d, _mm_mul_ps(s, wa));
+                    move_along(x, batch.b_at, &d, _mm_sub_ps(zero, _mm_mul_ps(s, wb)));
                 }
             },
         );
@@ -499,9 +525,9 @@ mod lanes {
                         _mm_div_ps(_mm_sub_ps(len, limit), _mm_mul_ps(len, weight)),
                     );
                     let x = &mut *xp;
-                    move_along(x, batch.a, &d, _mm_sub_ps(zero, _mm_mul_ps(s, wa)));
+                    move_along(x, batch.a_at, &d, _mm_sub_ps(zero, _mm_mul_ps(s, wa)));
                     if MOVES_B {
-                        move_along(x, batch.b, &d, _mm_mul_ps(s, wb));
+                        move_along(x, batch.b_at, &d, _mm_mul_ps(s, wb));
                     }
                 }
             },
@@ -525,7 +551,7 @@ mod lanes {
             if batch.is_padding(k) {
                 continue;
             }
-            let (a, b) = (batch.a[k] as usize, batch.b[k] as usize);
+            let (a, b) = (batch.a()[k] as usize, batch.b()[k] as usize);
             let mut pair = [x[a], x[b]];
             f(k, &mut pair, &[batch.wa[k], batch.wb[k]]);
             [x[a], x[b]] = pair;
@@ -667,8 +693,8 @@ mod tests {
                 if batch.is_padding(k) {
                     continue;
                 }
-                seen.push([batch.a[k], batch.b[k]]);
-                particles.extend([batch.a[k], batch.b[k]]);
+                seen.push([batch.a()[k], batch.b()[k]]);
+                particles.extend([batch.a()[k], batch.b()[k]]);
             }
             let count = particles.len();
             particles.sort();
@@ -694,7 +720,7 @@ mod tests {
         let lengths = vec![0.1; pairs.len()];
         let batched = PairBatches::new(zipped(&pairs, &lengths), x.len(), true);
         let batches = batched.batches();
-        let touched = |b: &Batch| -> Vec<u32> { b.a.iter().chain(&b.b).copied().collect() };
+        let touched = |b: &Batch| -> Vec<u32> { b.a().into_iter().chain(b.b()).collect() };
         let mut waiting = 0;
         for k in 1..batches.len() {
             if batched.waits()[k] {
@@ -743,7 +769,7 @@ mod tests {
         let projection = Projection::Xpbd { alpha_tilde: 0.0 };
         batched.project_distances(&mut lambdas, &mut x, projection);
         let reference = scalar_reference(&batched, &x0, |x, batch, k| {
-            let pair = [batch.a[k], batch.b[k]];
+            let pair = [batch.a()[k], batch.b()[k]];
             project_distance(x, &w, pair, batch.length[k], projection, &mut 0.0);
         });
         for (p, q) in x.iter().zip(&reference) {
@@ -761,7 +787,7 @@ mod tests {
             for k in 0..LANES {
                 let place = edges
                     .iter()
-                    .position(|e| *e == [batch.a[k], batch.b[k]])
+                    .position(|e| *e == [batch.a()[k], batch.b()[k]])
                     .unwrap();
                 worst = worst.max(place.abs_diff(i * LANES + k));
             }
@@ -792,7 +818,7 @@ mod tests {
                 for (batch, lambdas) in batched.batches().iter().zip(&mut reference_lambdas) {
                     for (k, lambda) in lambdas.iter_mut().enumerate() {
                         if !batch.is_padding(k) {
-                            let pair = [batch.a[k], batch.b[k]];
+                            let pair = [batch.a()[k], batch.b()[k]];
                             let rest = batch.length[k];
                             project_distance(&mut reference, &w, pair, rest, projection, lambda);
                         }
@@ -832,7 +858,7 @@ mod tests {
         batched.project_limits(&mut x);
         let reference = scalar_reference(&batched, &x0, |x, batch, k| {
             let limit = StretchLimit {
-                particles: [batch.a[k], batch.b[k]],
+                particles: [batch.a()[k], batch.b()[k]],
                 length: batch.length[k],
             };
             project_stretch_limit(x, &w, &limit);
@@ -866,8 +892,8 @@ mod tests {
         batched.project_limits(&mut x);
         let reference = scalar_reference(&batched, &x0, |x, batch, k| {
             let tether = Tether {
-                particle: batch.a[k],
-                anchor: batch.b[k],
+                particle: batch.a()[k],
+                anchor: batch.b()[k],
                 length: batch.length[k],
             };
             project_tether(x, &w, &tether);

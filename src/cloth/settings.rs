@@ -154,7 +154,9 @@ pub struct SolverSettings {
 /// After every fixed step the solver measures the largest strain
 /// ([`crate::cloth::ClothSim::strain`]). Above the target, the next step takes `1 + grow`
 /// times as many substeps (at least one more); below `lower_fraction` of the target for
-/// `calm_steps` steps in a row, one fewer. Between the two the count holds (the hysteresis
+/// `calm_steps` steps in a row, `1 + grow` times fewer (at least one fewer), so that a count
+/// raised for a brief peak of strain comes back down as fast as it went up. Between the two
+/// the count holds (the hysteresis
 /// band), so it does not flip between two counts every step. The count stays within
 /// `min_substeps ..= max_substeps`; [`crate::cloth::ClothSim::last_substeps`] reports the one
 /// used. The first step uses [`SolverSettings::substeps`].
@@ -199,7 +201,8 @@ impl AdaptiveSubsteps {
             *calm += 1;
             if *calm >= self.calm_steps.max(1) {
                 *calm = 0;
-                return (current - 1).max(lo);
+                let fewer = (current as f32 * self.grow / (1.0 + self.grow)).floor() as u32;
+                return current.saturating_sub(fewer.max(1)).max(lo);
             }
         } else {
             *calm = 0;
