@@ -34,7 +34,22 @@ pub fn damp_rigid(x: &[Vec3A], v: &mut [Vec3A], inverse_masses: &[f32], k: f32) 
     let Some(motion) = RigidMotion::fit(x, v, inverse_masses) else {
         return;
     };
-    for ((x, v), &w) in x.iter().zip(v.iter_mut()).zip(inverse_masses) {
+    apply_rigid(&motion, x, v, inverse_masses, k);
+}
+
+/// [`damp_rigid`] with the particles' masses instead of their inverses (0 for particles
+/// that do not count, as pinned ones): no division per particle.
+pub fn damp_rigid_masses(x: &[Vec3A], v: &mut [Vec3A], masses: &[f32], k: f32) {
+    let Some(motion) = RigidMotion::fit_masses(x, v, masses.iter().copied()) else {
+        return;
+    };
+    apply_rigid(&motion, x, v, masses, k);
+}
+
+/// `v_i += k (rigid velocity at x_i - v_i)` for the particles whose `weights` (inverse masses
+/// or masses) are positive.
+fn apply_rigid(motion: &RigidMotion, x: &[Vec3A], v: &mut [Vec3A], weights: &[f32], k: f32) {
+    for ((x, v), &w) in x.iter().zip(v.iter_mut()).zip(weights) {
         if w > 0.0 {
             let rigid = motion.velocity_at(*x);
             *v += (rigid - *v) * k;
@@ -65,7 +80,22 @@ impl RigidMotion {
     /// (so that they stay of the cloth's own size in `f32`), then shifted to the centre of
     /// mass: `L = sum m r x u - M c x v_c`, `sum m (r - c)(r - c)^T = sum m r r^T - M c c^T`.
     pub fn fit(x: &[Vec3A], v: &[Vec3A], inverse_masses: &[f32]) -> Option<Self> {
-        let first = inverse_masses.iter().position(|&w| w > 0.0)?;
+        Self::fit_masses(
+            x,
+            v,
+            inverse_masses
+                .iter()
+                .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 }),
+        )
+    }
+
+    /// [`RigidMotion::fit`] with the particles' masses (0 for particles that do not count).
+    pub fn fit_masses(
+        x: &[Vec3A],
+        v: &[Vec3A],
+        masses: impl Iterator<Item = f32> + Clone,
+    ) -> Option<Self> {
+        let first = masses.clone().position(|m| m > 0.0)?;
         let (x0, v0) = (*x.get(first)?, *v.get(first)?);
         let mut mass = 0.0;
         let mut mr_sum = Vec3A::ZERO;
@@ -73,9 +103,8 @@ impl RigidMotion {
         let mut moment = Vec3A::ZERO;
         // sum m r r^T, as its six distinct entries.
         let (mut qxx, mut qyy, mut qzz, mut qxy, mut qxz, mut qyz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for ((x, v), &w) in x.iter().zip(v).zip(inverse_masses) {
-            if w > 0.0 {
-                let m = 1.0 / w;
+        for ((x, v), m) in x.iter().zip(v).zip(masses) {
+            if m > 0.0 {
                 let r = *x - x0;
                 let u = *v - v0;
                 let mr = r * m;

@@ -7,7 +7,7 @@ use super::constraints::{
     Plane, Projection, Tether, project_bending, project_distance, project_mutual_tether,
     project_plane,
 };
-use super::damping::{RigidMotion, damp_plain, damp_rigid};
+use super::damping::{RigidMotion, damp_plain, damp_rigid_masses};
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::{SpringSet, auto_substeps};
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
@@ -184,11 +184,19 @@ fn contact_velocities(
 }
 
 /// Damps the velocities by the fraction `k` as [`SolverSettings::damping_mode`] says.
-fn damp(settings: &SolverSettings, k: f32, x: &[Vec3A], v: &mut [Vec3A], w: &[f32]) {
+/// `masses` are the free particles' masses (0 for pinned ones), `w` the inverse masses.
+fn damp(
+    settings: &SolverSettings,
+    k: f32,
+    x: &[Vec3A],
+    v: &mut [Vec3A],
+    w: &[f32],
+    masses: &[f32],
+) {
     if k > 0.0 {
         match settings.damping_mode {
             DampingMode::Plain => damp_plain(v, w, k),
-            DampingMode::Rigid => damp_rigid(x, v, w, k),
+            DampingMode::Rigid => damp_rigid_masses(x, v, masses, k),
         }
     }
 }
@@ -280,6 +288,9 @@ pub struct ClothSim {
     /// The inverse masses (bits) the batches' weights and `isometric_prepared` were made
     /// with, and the bending `alpha~` of the latter: they are made again when either changes.
     prepared_for: (Vec<u32>, u32),
+    /// Per particle, its mass if it is free, 0 if pinned (from the inverse masses, made with
+    /// `prepared_for`).
+    free_masses: Vec<f32>,
     /// The bending pairs that are not flat at rest (dihedral even with isometric bending).
     curved_pairs: Vec<BendingPair>,
     contact_push: Vec<f32>,
@@ -362,6 +373,7 @@ impl ClothSim {
             tether_batches: PairBatches::default(),
             isometric_prepared: PreparedIsometric::default(),
             prepared_for: (Vec::new(), f32::NAN.to_bits()),
+            free_masses: Vec::new(),
             isometric_pairs,
             curved_pairs,
             contact_push: vec![0.0; n],
@@ -722,6 +734,9 @@ impl ClothSim {
             self.tether_batches.set_weights(w);
             seen.clear();
             seen.extend(w.iter().map(|m| m.to_bits()));
+            self.free_masses.clear();
+            self.free_masses
+                .extend(w.iter().map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 }));
             *bend_alpha = f32::NAN.to_bits();
         }
     }
@@ -955,7 +970,7 @@ impl ClothSim {
                 self.contacts
                     .respond(colliders, x, x_prev, v, inv_h, h, bounce_threshold);
             }
-            damp(settings, damping_k, x, v, w);
+            damp(settings, damping_k, x, v, w, &self.free_masses);
         }
     }
 
@@ -1143,7 +1158,7 @@ impl ClothSim {
                     bounce_threshold,
                 );
             }
-            damp(settings, damping_k, x, v, w);
+            damp(settings, damping_k, x, v, w, &self.free_masses);
         }
         self.self_contacts = self_contacts;
     }
