@@ -119,13 +119,16 @@ struct PreparedPair {
 impl PreparedIsometric {
     /// Computes the factors of `pairs` for inverse masses `w` and the time-step-scaled
     /// compliance `alpha_tilde` (each pair's is `alpha_tilde` times its `compliance_scale^2`).
-    /// A pair with no free particle, or with a particle `w` does not hold, does nothing.
+    /// A pair with no free particle does nothing; one that names a particle twice, or a
+    /// particle `w` does not hold, is left out.
     pub fn prepare(&mut self, pairs: &[IsometricPair], w: &[f32], alpha_tilde: f32) {
         self.pairs.clear();
         self.bound = 0;
         for pair in pairs {
             let k = pair.weights;
-            if pair.particles.iter().any(|&i| i as usize >= w.len()) {
+            let [p0, p1, p2, p3] = pair.particles;
+            let repeated = p0 == p1 || p0 == p2 || p0 == p3 || p1 == p2 || p1 == p3 || p2 == p3;
+            if repeated || pair.particles.iter().any(|&i| i as usize >= w.len()) {
                 continue;
             }
             let ws = pair.particles.map(|i| w[i as usize]);
@@ -163,14 +166,14 @@ impl PreparedIsometric {
             let g = pair.move_by;
             // SAFETY: every index is below `self.bound` (`prepare`), which `x` holds.
             unsafe {
-                let c = *x.get_unchecked(i0) * k[0]
-                    + *x.get_unchecked(i1) * k[1]
-                    + *x.get_unchecked(i2) * k[2]
-                    + *x.get_unchecked(i3) * k[3];
-                *x.get_unchecked_mut(i0) += c * g[0];
-                *x.get_unchecked_mut(i1) += c * g[1];
-                *x.get_unchecked_mut(i2) += c * g[2];
-                *x.get_unchecked_mut(i3) += c * g[3];
+                // The four particles of a pair are distinct (`prepare`): each is read once
+                // and written once.
+                let p = [i0, i1, i2, i3].map(|i| *x.get_unchecked(i));
+                let c = p[0] * k[0] + p[1] * k[1] + p[2] * k[2] + p[3] * k[3];
+                *x.get_unchecked_mut(i0) = p[0] + c * g[0];
+                *x.get_unchecked_mut(i1) = p[1] + c * g[1];
+                *x.get_unchecked_mut(i2) = p[2] + c * g[2];
+                *x.get_unchecked_mut(i3) = p[3] + c * g[3];
             }
         }
     }
