@@ -848,10 +848,10 @@ impl ClothSim {
         for s in 0..substeps {
             // 1. Predict.
             let half_h2_a = a * (0.5 * h * h);
-            for i in 0..x.len() {
-                x_prev[i] = x[i];
-                if w[i] > 0.0 {
-                    x[i] += v[i] * h + half_h2_a;
+            for (((x, x_prev), v), &w) in x.iter_mut().zip(x_prev.iter_mut()).zip(&*v).zip(&*w) {
+                *x_prev = *x;
+                if w > 0.0 {
+                    *x += *v * h + half_h2_a;
                 }
             }
             let t_end = (s + 1) as f32 / substeps as f32;
@@ -954,12 +954,12 @@ impl ClothSim {
             //    equal positions (in f32 that difference loses millimetres per second of fall).
             let inv_h = 1.0 / h;
             let h_a = a * h;
-            for i in 0..x.len() {
-                if w[i] > 0.0 {
-                    let predicted = x_prev[i] + (v[i] * h + half_h2_a);
-                    v[i] += h_a + (x[i] - predicted) * inv_h;
+            for (((x, x_prev), v), &w) in x.iter().zip(&*x_prev).zip(v.iter_mut()).zip(&*w) {
+                if w > 0.0 {
+                    let predicted = *x_prev + (*v * h + half_h2_a);
+                    *v += h_a + (*x - predicted) * inv_h;
                 } else {
-                    v[i] = (x[i] - x_prev[i]) * inv_h;
+                    *v = (*x - *x_prev) * inv_h;
                 }
             }
 
