@@ -16,7 +16,7 @@
 //! depend on the substep count. Particles with inverse mass 0 (pinned) are left alone and do
 //! not count in the rigid fit.
 
-use bevy::math::{Mat3A, Vec3A};
+use bevy::math::{Mat3A, Vec3A, Vec3Swizzles};
 
 /// Multiplies every free particle's velocity by `1 - k`.
 pub fn damp_plain(v: &mut [Vec3A], inverse_masses: &[f32], k: f32) {
@@ -101,8 +101,10 @@ impl RigidMotion {
         let mut mr_sum = Vec3A::ZERO;
         let mut mu_sum = Vec3A::ZERO;
         let mut moment = Vec3A::ZERO;
-        // sum m r r^T, as its six distinct entries.
-        let (mut qxx, mut qyy, mut qzz, mut qxy, mut qxz, mut qyz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        // sum m r r^T, as its six distinct entries: the diagonal (xx, yy, zz) and the rest
+        // (xy, yz, zx).
+        let mut diagonal = Vec3A::ZERO;
+        let mut off_diagonal = Vec3A::ZERO;
         for ((x, v), m) in x.iter().zip(v).zip(masses) {
             if m > 0.0 {
                 let r = *x - x0;
@@ -112,12 +114,8 @@ impl RigidMotion {
                 mr_sum += mr;
                 mu_sum += u * m;
                 moment += mr.cross(u);
-                qxx += mr.x * r.x;
-                qyy += mr.y * r.y;
-                qzz += mr.z * r.z;
-                qxy += mr.x * r.y;
-                qxz += mr.x * r.z;
-                qyz += mr.y * r.z;
+                diagonal += mr * r;
+                off_diagonal += mr * r.yzx();
             }
         }
         if mass <= 0.0 {
@@ -130,6 +128,8 @@ impl RigidMotion {
         let angular_momentum = moment - c.cross(vc) * mass;
         // The second moments about the centre of mass, then the inertia tensor
         // sum m (|r|^2 Id - r r^T).
+        let (qxx, qyy, qzz) = (diagonal.x, diagonal.y, diagonal.z);
+        let (qxy, qyz, qxz) = (off_diagonal.x, off_diagonal.y, off_diagonal.z);
         let (cxx, cyy, czz) = (
             qxx - mass * c.x * c.x,
             qyy - mass * c.y * c.y,
