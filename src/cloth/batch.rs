@@ -2,7 +2,7 @@
 //!
 //! A Gauss-Seidel sweep projects constraints one after another; written one at a time, each
 //! projection waits for a square root and a division, and the sweep runs at 16 to 23 ns per
-//! constraint here (`benches/kernels.rs`; 4.8 ns batched). [`PairBatches`] groups a list of two-particle constraints into batches of
+//! constraint here (`benches/kernels.rs`; about 5 ns batched). [`PairBatches`] groups a list of two-particle constraints into batches of
 //! [`LANES`] that share no particle they move, so that one batch is projected with four-wide
 //! arithmetic (SSE on `x86_64`: one square root and one division for four constraints), and
 //! the sweep stays a plain sequential Gauss-Seidel sweep: batches run one after another, and
