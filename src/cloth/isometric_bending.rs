@@ -119,8 +119,8 @@ struct PreparedPair {
 impl PreparedIsometric {
     /// Computes the factors of `pairs` for inverse masses `w` and the time-step-scaled
     /// compliance `alpha_tilde` (each pair's is `alpha_tilde` times its `compliance_scale^2`).
-    /// A pair with no free particle does nothing; one that names a particle twice, or a
-    /// particle `w` does not hold, is left out.
+    /// Pairs with no free particle (they would move nothing), that name a particle twice,
+    /// or that name a particle `w` does not hold, are left out.
     pub fn prepare(&mut self, pairs: &[IsometricPair], w: &[f32], alpha_tilde: f32) {
         self.pairs.clear();
         self.bound = 0;
@@ -134,11 +134,10 @@ impl PreparedIsometric {
             let ws = pair.particles.map(|i| w[i as usize]);
             let weight: f32 = (0..4).map(|i| ws[i] * k[i] * k[i]).sum();
             let at = alpha_tilde * pair.compliance_scale * pair.compliance_scale;
-            let inverse = if weight > 0.0 {
-                1.0 / (weight + at)
-            } else {
-                0.0
-            };
+            if weight <= 0.0 {
+                continue;
+            }
+            let inverse = 1.0 / (weight + at);
             let move_by = std::array::from_fn(|i| -ws[i] * k[i] * inverse);
             if !move_by.iter().all(|g: &f32| g.is_finite()) {
                 continue;
@@ -154,8 +153,8 @@ impl PreparedIsometric {
         }
     }
 
-    /// Projects every pair once, in order, from a zero multiplier. Does nothing if `x` is
-    /// shorter than the inverse masses the pairs were prepared with.
+    /// Projects every pair once, in order, from a zero multiplier. Does nothing if `x` does
+    /// not hold every particle the pairs name.
     pub fn project(&self, x: &mut [Vec3A]) {
         if x.len() < self.bound {
             return;

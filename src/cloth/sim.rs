@@ -283,13 +283,14 @@ pub struct ClothSim {
     /// Multipliers of `edge_batches`, one lane per edge.
     edge_batch_lambdas: Vec<Vec4>,
     isometric_pairs: Vec<IsometricPair>,
-    /// The isometric pairs' factors for `prepared_for`.
+    /// The isometric pairs' factors for `weights_seen` and `bend_alpha_prepared`.
     isometric_prepared: PreparedIsometric,
-    /// The inverse masses (bits) the batches' weights and `isometric_prepared` were made
-    /// with, and the bending `alpha~` of the latter: they are made again when either changes.
-    prepared_for: (Vec<u32>, u32),
-    /// Per particle, its mass if it is free, 0 if pinned (from the inverse masses, made with
-    /// `prepared_for`).
+    /// The inverse masses (bits) the batches' weights, `free_masses` and
+    /// `isometric_prepared` were made from: they are made again when these change.
+    weights_seen: Vec<u32>,
+    /// The bending `alpha~` (bits) `isometric_prepared` was made for (NaN: not made).
+    bend_alpha_prepared: u32,
+    /// Per particle, its mass if it is free, 0 if pinned.
     free_masses: Vec<f32>,
     /// The bending pairs that are not flat at rest (dihedral even with isometric bending).
     curved_pairs: Vec<BendingPair>,
@@ -372,7 +373,8 @@ impl ClothSim {
             edge_batches,
             tether_batches: PairBatches::default(),
             isometric_prepared: PreparedIsometric::default(),
-            prepared_for: (Vec::new(), f32::NAN.to_bits()),
+            weights_seen: Vec::new(),
+            bend_alpha_prepared: f32::NAN.to_bits(),
             free_masses: Vec::new(),
             isometric_pairs,
             curved_pairs,
@@ -727,7 +729,7 @@ impl ClothSim {
     /// do not change within a step), and marks the bending factors for remaking.
     fn sync_weights(&mut self) {
         let w = &self.state.inverse_masses;
-        let (seen, bend_alpha) = &mut self.prepared_for;
+        let seen = &mut self.weights_seen;
         if !seen.iter().copied().eq(w.iter().map(|m| m.to_bits())) {
             self.edge_batches.set_weights(w);
             self.limit_batches.set_weights(w);
@@ -737,7 +739,7 @@ impl ClothSim {
             self.free_masses.clear();
             self.free_masses
                 .extend(w.iter().map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 }));
-            *bend_alpha = f32::NAN.to_bits();
+            self.bend_alpha_prepared = f32::NAN.to_bits();
         }
     }
 
@@ -825,14 +827,14 @@ impl ClothSim {
         };
         let damping_k = 1.0 - (-settings.damping * h).exp();
         if let Some(alpha_tilde) = isometric
-            && self.prepared_for.1 != alpha_tilde.to_bits()
+            && self.bend_alpha_prepared != alpha_tilde.to_bits()
         {
             self.isometric_prepared.prepare(
                 &self.isometric_pairs,
                 &self.state.inverse_masses,
                 alpha_tilde,
             );
-            self.prepared_for.1 = alpha_tilde.to_bits();
+            self.bend_alpha_prepared = alpha_tilde.to_bits();
         }
         let ClothState {
             positions: x,
