@@ -77,6 +77,7 @@ fn setup(
                 target: IkTarget::Point(CENTRE),
                 settings: IkSettings::default(),
                 weight: 1.0,
+                max_speed: IkGoal::DEFAULT_MAX_SPEED,
             }],
             results: Vec::new(),
         },

@@ -5,8 +5,12 @@
 //!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
-//!     [--runs 3] [--frames 120]
+//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1]
 //! ```
+//!
+//! `s3 --motion` moves the character through the world (see
+//! `bevy_drape::poncho::CharacterMotion`); `--inertia` is the poncho's
+//! `ClothSettings::inertia`.
 //!
 //! `--k-*` set the spring stiffnesses (N/m) of the mass-spring and hybrid methods;
 //! `--auto-substeps` lets them raise the substep count to their stability bound.
@@ -15,7 +19,7 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy_drape::cloth::{PonchoDesc, SolverMethod, SolverSettings};
-use bevy_drape::poncho::{PonchoScene, PonchoSource, run_headless};
+use bevy_drape::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
 use bevy_drape::scenes::{
     Drape, DrapeRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
 };
@@ -39,6 +43,8 @@ fn run() -> Result<(), String> {
         _ => SolverSettings::default(),
     };
     let mut wave = true;
+    let mut motion = CharacterMotion::InPlace;
+    let mut inertia = 1.0f32;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = "xpbd".to_string();
     let mut stiffness = 1.0f32;
@@ -64,6 +70,13 @@ fn run() -> Result<(), String> {
             "--self-collision" => settings.self_collision = true,
             "--no-self-collision" => settings.self_collision = false,
             "--no-wave" => wave = false,
+            "--motion" => {
+                let name = value()?;
+                motion = CharacterMotion::from_name(&name).ok_or(format!(
+                    "unknown motion {name} (in-place, walk, jog, teleport)"
+                ))?;
+            }
+            "--inertia" => inertia = parse(&value()?)?,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -181,6 +194,8 @@ fn run() -> Result<(), String> {
             let mut scene = PonchoScene {
                 solver: settings,
                 wave,
+                motion,
+                inertia,
                 ..PonchoScene::default()
             };
             if n_given {

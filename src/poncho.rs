@@ -50,6 +50,10 @@ pub struct PonchoScene {
     pub start_height: f32,
     /// Whether the character waves with its right hand. Default: `true`.
     pub wave: bool,
+    /// How the character moves through the world. Default: [`CharacterMotion::InPlace`].
+    pub motion: CharacterMotion,
+    /// The poncho's [`ClothSettings::inertia`]. Default: `1.0`.
+    pub inertia: f32,
 }
 
 impl Default for PonchoScene {
@@ -63,6 +67,8 @@ impl Default for PonchoScene {
             density: 0.25,
             start_height: 1.5,
             wave: true,
+            motion: CharacterMotion::InPlace,
+            inertia: 1.0,
         }
     }
 }
@@ -75,6 +81,186 @@ pub struct Poncho;
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct Character;
 
+/// How the scene's character moves through the world. Its entity is moved by
+/// [`CharacterController`] in `FixedUpdate`, as a game's character controller would, while the
+/// walk clip plays in place at the speed that matches the ground speed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CharacterMotion {
+    /// Walks on the spot (the clip alone).
+    #[default]
+    InPlace,
+    /// After standing for [`SETTLE_SECONDS`], walks a closed loop at 1.2 m/s: a straight, a
+    /// stop, a half turn to the left of 1 m radius, and back.
+    Walk,
+    /// After standing for [`SETTLE_SECONDS`], jogs 3 m/s straight ahead, stops, turns round
+    /// on the spot and jogs back.
+    Jog,
+    /// Walks on the spot; every 3 s after [`SETTLE_SECONDS`] jumps 10 m sideways and turns a
+    /// quarter turn in one step (a respawn), then back.
+    Teleport,
+}
+
+impl CharacterMotion {
+    /// Every motion, in the order the `poncho` example's keys cycle them.
+    pub const ALL: [Self; 4] = [Self::InPlace, Self::Walk, Self::Jog, Self::Teleport];
+
+    /// Its name on the command line (`in-place`, `walk`, `jog`, `teleport`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::InPlace => "in-place",
+            Self::Walk => "walk",
+            Self::Jog => "jog",
+            Self::Teleport => "teleport",
+        }
+    }
+
+    /// The motion named `name` (see [`CharacterMotion::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The controller's script: legs of (seconds, speed m/s, turn rate rad/s), looped.
+    fn legs(&self) -> &'static [Leg] {
+        use std::f32::consts::PI;
+        const fn leg(seconds: f32, speed: f32, turn_rate: f32) -> Leg {
+            Leg {
+                seconds,
+                speed,
+                turn_rate,
+            }
+        }
+        // A half turn of 1 m radius at 1.2 m/s takes pi / 1.2 s.
+        const WALK_TURN: f32 = PI / 1.2;
+        const WALK: [Leg; 8] = [
+            leg(1.5, 1.2, 0.0),
+            leg(1.5, 0.0, 0.0),
+            leg(1.5, 1.2, 0.0),
+            leg(WALK_TURN, 1.2, 1.2),
+            leg(1.5, 1.2, 0.0),
+            leg(1.5, 0.0, 0.0),
+            leg(1.5, 1.2, 0.0),
+            leg(WALK_TURN, 1.2, 1.2),
+        ];
+        const JOG: [Leg; 4] = [
+            leg(2.5, 3.0, 0.0),
+            leg(1.0, 0.0, 0.0),
+            leg(1.0, 0.0, PI),
+            leg(0.3, 0.0, 0.0),
+        ];
+        match self {
+            Self::InPlace | Self::Teleport => &[],
+            Self::Walk => &WALK,
+            Self::Jog => &JOG,
+        }
+    }
+}
+
+/// The character stands this long before it starts to move (walk, jog) or jump (teleport),
+/// so the poncho settles on it first, seconds.
+pub const SETTLE_SECONDS: f32 = 2.0;
+
+/// How fast the controller changes speed, m/s^2.
+const ACCELERATION: f32 = 4.0;
+
+/// One leg of a [`CharacterMotion`]'s script.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Leg {
+    seconds: f32,
+    speed: f32,
+    turn_rate: f32,
+}
+
+/// A stand-in for a game's character controller: moves the character entity's [`Transform`]
+/// every fixed step along its [`CharacterMotion`] (speed changed at 4 m/s^2 at most, turns at
+/// a set rate) and plays the walk clip at the speed that matches its ground speed
+/// ([`Clip::stance_speed`](crate::skeleton::clip::Clip::stance_speed)), so the feet do not
+/// skate.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct CharacterController {
+    /// The motion.
+    pub motion: CharacterMotion,
+    /// Seconds since the motion started.
+    pub time: f32,
+    /// Current ground speed, m/s.
+    pub speed: f32,
+    /// Heading, radians about +Y (0 faces +Z).
+    pub heading: f32,
+    /// Jumps made so far ([`CharacterMotion::Teleport`]).
+    pub jumps: u32,
+    /// The clip's no-skate ground speed at normal playback, m/s, once known.
+    pub stance_speed: Option<f32>,
+}
+
+impl CharacterController {
+    /// A controller for `motion`, starting at rest.
+    pub fn new(motion: CharacterMotion) -> Self {
+        Self {
+            motion,
+            time: 0.0,
+            speed: 0.0,
+            heading: 0.0,
+            jumps: 0,
+            stance_speed: None,
+        }
+    }
+
+    /// Advances the controller by `dt` and moves `transform` (translation in the ground
+    /// plane, heading about +Y). Returns the clip playback speed for the new ground speed.
+    pub fn advance(&mut self, dt: f32, transform: &mut Transform) -> f32 {
+        self.time += dt;
+        let moving = self.time - SETTLE_SECONDS;
+        if self.motion == CharacterMotion::Teleport {
+            let jumps = (moving / 3.0).floor().max(0.0) as u32;
+            if jumps > self.jumps {
+                self.jumps = jumps;
+                let (sign, turn) = if jumps % 2 == 1 {
+                    (1.0, 1.0)
+                } else {
+                    (-1.0, -1.0)
+                };
+                transform.translation.x += 10.0 * sign;
+                self.heading += turn * std::f32::consts::FRAC_PI_2;
+                transform.rotation = Quat::from_rotation_y(self.heading);
+            }
+            return 1.0;
+        }
+        let legs = self.motion.legs();
+        if legs.is_empty() {
+            return 1.0;
+        }
+        let (target, turn_rate) = if moving < 0.0 {
+            (0.0, 0.0)
+        } else {
+            let cycle: f32 = legs.iter().map(|l| l.seconds).sum();
+            let mut at = moving.rem_euclid(cycle);
+            let mut current = legs[0];
+            for leg in legs {
+                current = *leg;
+                if at < leg.seconds {
+                    break;
+                }
+                at -= leg.seconds;
+            }
+            (current.speed, current.turn_rate)
+        };
+        let change = (target - self.speed).clamp(-ACCELERATION * dt, ACCELERATION * dt);
+        let speed = self.speed + change;
+        // The mean of the speeds at both ends of the step: the distance is exact for a
+        // constant acceleration.
+        let distance = 0.5 * (self.speed + speed) * dt;
+        self.speed = speed;
+        let half_turn = 0.5 * turn_rate * dt;
+        let forward = Quat::from_rotation_y(self.heading + half_turn) * Vec3::Z;
+        transform.translation += forward * distance;
+        self.heading += turn_rate * dt;
+        transform.rotation = Quat::from_rotation_y(self.heading);
+        match self.stance_speed {
+            Some(stance) if stance > 0.0 => self.speed / stance,
+            _ => 0.0,
+        }
+    }
+}
+
 /// Spawns the poncho scene at `Startup` (with the [`PonchoScene`] resource, default if
 /// absent) and moves the wave's IK target.
 pub struct PonchoScenePlugin;
@@ -86,7 +272,7 @@ impl Plugin for PonchoScenePlugin {
         }
         app.init_resource::<PonchoScene>()
             .add_systems(Startup, spawn_poncho_scene)
-            .add_systems(FixedUpdate, wave);
+            .add_systems(FixedUpdate, (drive_characters, wave));
     }
 }
 
@@ -110,6 +296,41 @@ pub fn wave_at(t: f32) -> (f32, Vec3) {
     (weight, Vec3::new(-0.38 + 0.1 * swing, 1.72, 0.12))
 }
 
+/// Moves every character with a [`CharacterController`] and sets its clip's speed.
+fn drive_characters(
+    mut characters: Query<(
+        &Skeleton,
+        &mut CharacterController,
+        &mut Transform,
+        Option<&mut ClipPlayer>,
+    )>,
+    clips: Res<Assets<crate::skeleton::plugin::ClipAsset>>,
+    time: Res<Time>,
+) {
+    for (skeleton, mut controller, mut transform, player) in &mut characters {
+        let Some(mut player) = player else {
+            continue;
+        };
+        if controller.stance_speed.is_none()
+            && let Some(asset) = clips.get(&player.clip)
+        {
+            let rig = &skeleton.rig;
+            let feet: Vec<usize> = ["foot_l", "foot_r"]
+                .iter()
+                .filter_map(|f| rig.find(f))
+                .collect();
+            controller.stance_speed = crate::skeleton::clip::Clip::new(&asset.0, rig)
+                .ok()
+                .and_then(|clip| clip.stance_speed(rig, &feet));
+        }
+        if controller.stance_speed.is_none() && controller.motion != CharacterMotion::InPlace {
+            // The clip is not loaded yet: wait with the motion too.
+            continue;
+        }
+        player.speed = controller.advance(time.delta_secs(), &mut transform);
+    }
+}
+
 fn spawn_poncho_scene(
     mut commands: Commands,
     scene: Res<PonchoScene>,
@@ -130,6 +351,7 @@ fn spawn_poncho_scene(
         .spawn((
             Name::new("character"),
             Character,
+            CharacterController::new(scene.motion),
             Skeleton {
                 rig: Arc::new(humanoid()),
             },
@@ -139,9 +361,10 @@ fn spawn_poncho_scene(
                     end_bone: "forearm_r".into(),
                     length: 3,
                     effector: WRIST,
-                    target: IkTarget::Point(wave_at(0.0).1),
+                    target: IkTarget::CharacterPoint(wave_at(0.0).1),
                     settings: IkSettings::default(),
                     weight: 0.0,
+                    max_speed: IkGoal::DEFAULT_MAX_SPEED,
                 }],
                 results: Vec::new(),
             },
@@ -162,10 +385,11 @@ fn spawn_poncho_scene(
         Name::new("poncho"),
         Poncho,
         Mesh3d(mesh),
-        Cloth::default(),
+        Cloth::worn_by(character),
         ClothSettings {
             density: scene.density,
             solver: scene.solver,
+            inertia: scene.inertia,
             ..default()
         },
         Transform::from_xyz(0.0, scene.start_height, 0.0),
@@ -179,21 +403,14 @@ fn wave(
 ) {
     for mut ik in &mut characters {
         if let Some(goal) = ik.goals.first_mut() {
-            let (weight, target) = if scene.wave {
-                wave_at(time.elapsed_secs())
+            if scene.wave {
+                let (weight, target) = wave_at(time.elapsed_secs());
+                goal.weight = weight;
+                goal.target = IkTarget::CharacterPoint(target);
             } else {
-                (0.0, goal_point(&goal.target))
-            };
-            goal.weight = weight;
-            goal.target = IkTarget::Point(target);
+                goal.weight = 0.0;
+            }
         }
-    }
-}
-
-fn goal_point(target: &IkTarget) -> Vec3 {
-    match target {
-        IkTarget::Point(p) => *p,
-        _ => Vec3::ZERO,
     }
 }
 
@@ -212,33 +429,56 @@ pub fn poncho_mesh(desc: &PonchoDesc) -> Mesh {
     }
 }
 
-/// The figures of one headless run of the scene (scene S3 of `BENCHMARKS.md`).
+/// The figures of one headless run of the scene (scene S3 of `BENCHMARKS.md`). Strain,
+/// centroid and energy figures are taken over the steps after the first
+/// [`SETTLE_SECONDS`] (the poncho falling onto the character is left out).
 #[derive(Clone, Debug, Default)]
 pub struct PonchoRun {
+    /// The motion the character made.
+    pub motion: CharacterMotion,
     /// Wall time of every fixed step, by stage (see [`DrapeTimings`]), milliseconds:
     /// `[animation, inverse kinematics, colliders, cloth]`.
     pub stage_ms: Vec<[f64; 4]>,
     /// The deepest any particle was inside any capsule or sphere proxy after any step, metres
     /// (measured from the proxy's surface, without its margin; 0 if none was).
     pub deepest_penetration: f32,
-    /// Largest structural strain after any step.
-    pub max_strain: f32,
-    /// The farthest the poncho's centroid was from the chest bone after any step, metres.
+    /// The largest structural strain of every step after the first [`SETTLE_SECONDS`].
+    pub step_max_strain: Vec<f32>,
+    /// Every structural edge's strain after every step after the first [`SETTLE_SECONDS`],
+    /// as a histogram of [`STRAIN_BIN`]-wide bins (the last bin holds everything above).
+    pub strain_histogram: Vec<u64>,
+    /// The farthest the poncho's centroid was from the chest bone horizontally after any
+    /// step after the first [`SETTLE_SECONDS`], metres.
     pub max_centroid_offset: f32,
+    /// The largest kinetic energy of the poncho after any step after the first
+    /// [`SETTLE_SECONDS`], J.
+    pub max_kinetic_energy: f32,
+    /// How far the character's entity went from where it started, metres.
+    pub travelled: f32,
     /// Whether every position stayed finite.
     pub finite: bool,
+    /// How many times the poncho diverged ([`crate::cloth::plugin::ClothDiverged`]).
+    pub divergences: u32,
+    /// Whether the poncho was frozen after any step.
+    pub frozen: bool,
     /// Particles in the poncho.
     pub particles: usize,
     /// Fixed steps run.
     pub steps: u32,
 }
 
+/// The width of a bin of [`PonchoRun::strain_histogram`].
+pub const STRAIN_BIN: f32 = 1e-4;
+/// The bins of [`PonchoRun::strain_histogram`] (strains up to 200%).
+const STRAIN_BINS: usize = 20_000;
+
 impl PonchoRun {
     /// The run's figures as one JSON object (the `scenes` runner's `s3` line), with the
     /// solver settings it ran with.
     pub fn json(&self, solver: &SolverSettings) -> String {
         format!(
-            "{{\"scene\":\"s3\",\"particles\":{},\"method\":\"{}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"max_centroid_offset\":{:.4},\"finite\":{}}}",
+            "{{\"scene\":\"s3\",\"motion\":\"{}\",\"particles\":{},\"method\":\"{}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"step_max_strain_median\":{:.6},\"step_max_strain_max\":{:.6},\"edge_strain_p999\":{:.6},\"max_centroid_offset\":{:.4},\"max_kinetic_energy\":{:.5},\"travelled\":{:.2},\"divergences\":{},\"frozen\":{},\"finite\":{}}}",
+            self.motion.name(),
             self.particles,
             solver.method.name(),
             solver.self_collision,
@@ -251,8 +491,14 @@ impl PonchoRun {
             self.median_ms(2),
             self.median_ms(3),
             self.deepest_penetration,
-            self.max_strain,
+            self.step_strain_median(),
+            self.step_strain_max(),
+            self.edge_strain_percentile(0.999),
             self.max_centroid_offset,
+            self.max_kinetic_energy,
+            self.travelled,
+            self.divergences,
+            self.frozen,
             self.finite
         )
     }
@@ -266,6 +512,64 @@ impl PonchoRun {
             .map(|s| if stage < 4 { s[stage] } else { s.iter().sum() })
             .collect();
         crate::scenes::median(&values)
+    }
+
+    /// The median over the steps of each step's largest strain.
+    pub fn step_strain_median(&self) -> f32 {
+        let values: Vec<f64> = self.step_max_strain.iter().map(|&s| s as f64).collect();
+        crate::scenes::median(&values) as f32
+    }
+
+    /// The largest strain of any step.
+    pub fn step_strain_max(&self) -> f32 {
+        self.step_max_strain.iter().copied().fold(0.0, f32::max)
+    }
+
+    /// The strain that fraction `q` of all edge samples are at or below (to within
+    /// [`STRAIN_BIN`], the upper edge of its bin).
+    pub fn edge_strain_percentile(&self, q: f64) -> f32 {
+        let total: u64 = self.strain_histogram.iter().sum();
+        if total == 0 {
+            return 0.0;
+        }
+        let wanted = (q * total as f64).ceil() as u64;
+        let mut seen = 0;
+        for (bin, &count) in self.strain_histogram.iter().enumerate() {
+            seen += count;
+            if seen >= wanted {
+                return (bin + 1) as f32 * STRAIN_BIN;
+            }
+        }
+        self.strain_histogram.len() as f32 * STRAIN_BIN
+    }
+
+    /// Whether the run holds what the main scene promises in every motion: finite, never
+    /// diverged or frozen, no particle deeper in a proxy than `margin`, the centroid within
+    /// 0.3 m of the chest horizontally; the reason if not.
+    pub fn check(&self, margin: f32) -> Result<(), String> {
+        let motion = self.motion.name();
+        if !self.finite {
+            return Err(format!("{motion}: a position went non-finite"));
+        }
+        if self.divergences > 0 || self.frozen {
+            return Err(format!(
+                "{motion}: diverged {} times, frozen {}",
+                self.divergences, self.frozen
+            ));
+        }
+        if self.deepest_penetration > margin {
+            return Err(format!(
+                "{motion}: a particle was {} m inside a proxy",
+                self.deepest_penetration
+            ));
+        }
+        if self.max_centroid_offset >= 0.3 {
+            return Err(format!(
+                "{motion}: the centroid went {} m from the chest",
+                self.max_centroid_offset
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -292,6 +596,7 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> PonchoRun {
     use bevy::time::TimeUpdateStrategy;
     use std::time::Duration;
 
+    let motion = scene.motion;
     let mut app = headless_app(scene);
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
     // Wait (with time standing still) until the poncho is built and the clip is playing.
@@ -321,9 +626,12 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> PonchoRun {
         1.0 / 60.0,
     )));
     let mut run = PonchoRun {
+        motion,
         finite: true,
+        strain_histogram: vec![0; STRAIN_BINS],
         ..default()
     };
+    let start = character_position(&mut app);
     let mut last_step = app.world().resource::<DrapeTimings>().steps;
     // The first update after the wait has a zero delta.
     app.update();
@@ -343,20 +651,45 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> PonchoRun {
             ms(timings.cloth),
         ]);
         measure(&mut app, &mut run);
+        if let (Some(a), Some(b)) = (start, character_position(&mut app)) {
+            run.travelled = run.travelled.max(a.distance(b));
+        }
     }
     run
 }
 
-fn measure(app: &mut App, run: &mut PonchoRun) {
-    use crate::collide::Shape;
+fn character_position(app: &mut App) -> Option<Vec3> {
     let world = app.world_mut();
+    world
+        .query_filtered::<&Transform, With<Character>>()
+        .iter(world)
+        .next()
+        .map(|t| t.translation)
+}
+
+fn measure(app: &mut App, run: &mut PonchoRun) {
+    use crate::cloth::EdgeKind;
+    use crate::collide::Shape;
+    let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
+    let world = app.world_mut();
+    run.divergences += world
+        .resource_mut::<Messages<crate::cloth::plugin::ClothDiverged>>()
+        .drain()
+        .count() as u32;
     let chest = world
         .query_filtered::<&crate::skeleton::plugin::SkeletonBones, With<Character>>()
         .iter(world)
         .next()
         .and_then(|bones| bones.get("chest"));
+    let mut transforms =
+        bevy::ecs::system::SystemState::<bevy::transform::helper::TransformHelper>::new(world);
     let chest = chest
-        .and_then(|e| world.get::<GlobalTransform>(e))
+        .and_then(|e| {
+            transforms
+                .get(world)
+                .ok()
+                .and_then(|t| t.compute_global_transform(e).ok())
+        })
         .map(|g| g.translation());
     let mut ponchos =
         world.query_filtered::<&crate::cloth::plugin::ClothSimulation, With<Poncho>>();
@@ -365,7 +698,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         let x = &sim.state().positions;
         run.particles = x.len();
         run.finite &= sim.is_finite();
-        run.max_strain = run.max_strain.max(sim.strain().max);
+        run.frozen |= simulation.is_frozen();
 
         for c in sim.colliders() {
             if matches!(c.shape, Shape::Plane) {
@@ -377,12 +710,32 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
                 }
             }
         }
+        if !settled {
+            continue;
+        }
+        let mut step_max = 0.0f32;
+        for edge in sim
+            .model()
+            .edges
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Structural)
+        {
+            let [a, b] = edge.particles;
+            let strain =
+                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length;
+            step_max = step_max.max(strain);
+            let bin = ((strain / STRAIN_BIN) as usize).min(run.strain_histogram.len() - 1);
+            run.strain_histogram[bin] += 1;
+        }
+        run.step_max_strain.push(step_max);
+        run.max_kinetic_energy = run.max_kinetic_energy.max(sim.kinetic_energy());
         if let Some(chest) = chest
             && !x.is_empty()
         {
             let centroid: Vec3 =
                 Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32;
-            run.max_centroid_offset = run.max_centroid_offset.max(centroid.distance(chest));
+            let offset = (centroid - chest).with_y(0.0).length();
+            run.max_centroid_offset = run.max_centroid_offset.max(offset);
         }
     }
 }

@@ -118,7 +118,8 @@ impl Plugin for DrapeSchedulePlugin {
                 )
                     .chain(),
             )
-            .init_resource::<DrapeTimings>();
+            .init_resource::<DrapeTimings>()
+            .init_resource::<crate::cloth::plugin::DrapeSettings>();
         let sets = [
             DrapeSystems::Prepare,
             DrapeSystems::Animate,

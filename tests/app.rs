@@ -677,6 +677,7 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
         target,
         settings: IkSettings::default(),
         weight: 1.0,
+        max_speed: IkGoal::DEFAULT_MAX_SPEED,
     };
     let character = app
         .world_mut()

@@ -17,7 +17,8 @@ use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
 use super::weld::{default_tolerance, weld};
-use crate::collide::plugin::ColliderWorld;
+use crate::collide::plugin::{ColliderWorld, world_pose};
+use crate::collide::{FrameStep, FrameTracker, Pose, Teleport};
 use crate::error::ClothError;
 use crate::interact::colors::{DebugColorMode, debug_colors};
 use crate::schedule::DrapeSystems;
@@ -47,6 +48,11 @@ pub struct Cloth {
     pub pinned_vertices: Vec<u32>,
     /// Vertices held at a point fixed to another entity.
     pub attachments: Vec<VertexAttachment>,
+    /// The entity the cloth is worn by or follows (a character): a jump of it past
+    /// [`DrapeSettings::teleport`] carries the cloth along rigidly, [`ClothSettings::inertia`]
+    /// scales how much of its world motion the cloth feels, and the cloth is drawn in its
+    /// frame between fixed steps. Default: `None` (the cloth lives in the world alone).
+    pub follow: Option<Entity>,
 }
 
 impl Cloth {
@@ -54,8 +60,22 @@ impl Cloth {
     pub fn pinned(vertices: impl IntoIterator<Item = u32>) -> Self {
         Self {
             pinned_vertices: vertices.into_iter().collect(),
-            attachments: Vec::new(),
+            ..default()
         }
+    }
+
+    /// A cloth worn by (following) `entity`, see [`Cloth::follow`].
+    pub fn worn_by(entity: Entity) -> Self {
+        Self {
+            follow: Some(entity),
+            ..default()
+        }
+    }
+
+    /// Follows `entity` (see [`Cloth::follow`]).
+    pub fn following(mut self, entity: Entity) -> Self {
+        self.follow = Some(entity);
+        self
     }
 
     /// Adds an attachment.
@@ -92,6 +112,11 @@ pub struct ClothSettings {
     pub divergence: DivergenceBounds,
     /// What happens to a diverged cloth. Default: [`OnDivergence::Freeze`].
     pub on_divergence: OnDivergence,
+    /// How much of the followed entity's ([`Cloth::follow`]) world motion the cloth feels:
+    /// `1` is physical, `0` as if the cloth lived in that entity's frame (it still feels the
+    /// joints' motion, gravity and its colliders); in between scales the inertia of walking,
+    /// turning and stopping. Default: `1.0`.
+    pub inertia: f32,
 }
 
 impl Default for ClothSettings {
@@ -103,6 +128,7 @@ impl Default for ClothSettings {
             container: None,
             divergence: DivergenceBounds::default(),
             on_divergence: OnDivergence::Freeze,
+            inertia: 1.0,
         }
     }
 }
@@ -160,6 +186,12 @@ pub struct DrapeSettings {
     pub gravity: Vec3,
     /// When true, no cloth is stepped. Default: `false`.
     pub paused: bool,
+    /// When a character, a collider or a followed entity moves so far in one fixed step that
+    /// it counts as a jump (a teleport, a respawn) rather than motion: colliders are then not
+    /// swept through the space between, and cloths following it ([`Cloth::follow`]) are
+    /// carried along rigidly. `None` takes every pose change as motion. Default:
+    /// [`Teleport::default`] (1 m or 60 degrees in one step).
+    pub teleport: Option<Teleport>,
 }
 
 impl Default for DrapeSettings {
@@ -167,6 +199,7 @@ impl Default for DrapeSettings {
         Self {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             paused: false,
+            teleport: Some(Teleport::default()),
         }
     }
 }
@@ -194,6 +227,13 @@ pub struct ClothSimulation {
     warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
     frozen_with: Option<ClothSettings>,
+    /// The followed entity's motion ([`Cloth::follow`]).
+    follow: FrameTracker,
+    /// Its motion over the last fixed step, for drawing in its frame.
+    followed: Option<FrameStep>,
+    /// Its pose when the cloth was built, for resets.
+    built_in_frame: Option<Pose>,
+    warned_follow: bool,
 }
 
 impl ClothSimulation {
@@ -221,6 +261,33 @@ impl ClothSimulation {
     /// The simulated cloth, to read or change its state directly.
     pub fn sim_mut(&mut self) -> &mut ClothSim {
         &mut self.sim
+    }
+
+    /// The followed entity's ([`Cloth::follow`]) motion over the last fixed step.
+    pub fn followed(&self) -> Option<&FrameStep> {
+        self.followed.as_ref()
+    }
+
+    /// Puts the cloth back in its rest shape, at rest: where it was built or, if it follows
+    /// an entity, where that shape is in the entity's frame now.
+    pub fn reset(&mut self) {
+        self.sim.reset();
+        if let (Some(built), Some(now)) = (self.built_in_frame, self.followed) {
+            let moved = FrameStep {
+                start: built,
+                ..now
+            }
+            .carry(1.0);
+            let state = self.sim.state_mut();
+            for p in state
+                .positions
+                .iter_mut()
+                .chain(state.previous_positions.iter_mut())
+            {
+                *p = moved.point(*p);
+            }
+        }
+        self.render_from.clone_from(&self.sim.state().positions);
     }
 }
 
@@ -315,6 +382,10 @@ fn build_simulation(
             warned_invalid_settings: false,
             warned_volume: false,
             frozen_with: None,
+            follow: FrameTracker::default(),
+            followed: None,
+            built_in_frame: None,
+            warned_follow: false,
         },
         warnings,
     ))
@@ -366,6 +437,10 @@ fn build_cloths(
             .unwrap_or_default();
         match build_simulation(mesh, cloth, &global, density) {
             Ok((mut simulation, warnings)) => {
+                simulation.built_in_frame = cloth
+                    .follow
+                    .and_then(|e| transforms.compute_global_transform(e).ok())
+                    .and_then(|g| world_pose(&g));
                 for warning in warnings {
                     warn!("cloth {entity}: {warning}");
                 }
@@ -466,6 +541,33 @@ fn step_cloths(
             }
         }
 
+        // The entity the cloth follows: its motion over this step, a share of it carried.
+        simulation.followed = None;
+        if let Some(target) = cloth.follow {
+            match transforms
+                .compute_global_transform(target)
+                .ok()
+                .and_then(|g| world_pose(&g))
+            {
+                Some(pose) => {
+                    let frame = simulation.follow.step(pose, dt, drape.teleport.as_ref());
+                    sim.follow_frame(&frame, settings.inertia);
+                    simulation.followed = Some(frame);
+                    simulation.warned_follow = false;
+                }
+                None => {
+                    if !simulation.warned_follow {
+                        warn!(
+                            "cloth {entity} follows {target}, which has no valid transform: \
+                             simulated in the world alone"
+                        );
+                        simulation.warned_follow = true;
+                    }
+                    simulation.follow.reset();
+                }
+            }
+        }
+
         sim.step(&settings.solver, drape.gravity, dt);
         if settings.solver.volume.is_some()
             && let Some(err) = sim.volume_error()
@@ -495,8 +597,7 @@ fn step_cloths(
                         "cloth {entity} diverged with {} ({divergence}); reset to its rest shape",
                         method.name()
                     );
-                    sim.reset();
-                    simulation.render_from.clone_from(&sim.state().positions);
+                    simulation.reset();
                 }
             }
             diverged.write(ClothDiverged {
@@ -509,20 +610,30 @@ fn step_cloths(
     }
 }
 
-/// Writes every cloth into its mesh, interpolated between the last two fixed steps.
+/// Writes every cloth into its mesh, interpolated between the last two fixed steps: in the
+/// world, or, for a cloth that follows an entity, in that entity's frame (so the cloth is
+/// drawn on the entity wherever the entity is drawn, interpolated or not).
 fn write_back_meshes(
-    mut cloths: Query<(&mut ClothSimulation, &Mesh3d, &GlobalTransform)>,
+    mut cloths: Query<(&mut ClothSimulation, &Cloth, &Mesh3d, &GlobalTransform)>,
+    followed: Query<&GlobalTransform>,
     mut meshes: ResMut<Assets<Mesh>>,
     fixed: Res<Time<Fixed>>,
     debug: Res<ClothDebugColors>,
 ) {
     let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
-    for (mut simulation, mesh3d, global) in &mut cloths {
+    for (mut simulation, cloth, mesh3d, global) in &mut cloths {
         let simulation = &mut *simulation;
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
             continue;
         };
         let to_local = global.affine().inverse();
+        // The followed entity's poses at the last two fixed steps and as drawn now.
+        let frame = simulation.followed.zip(
+            cloth
+                .follow
+                .and_then(|e| followed.get(e).ok())
+                .and_then(world_pose),
+        );
         let current = &simulation.sim.state().positions;
         let map = &simulation.vertex_to_particle;
         let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
@@ -536,22 +647,34 @@ fn write_back_meshes(
         {
             continue;
         }
+        // Interpolated particle positions in the mesh's frame.
+        simulation.local_positions.clear();
+        simulation
+            .local_positions
+            .extend(
+                simulation
+                    .render_from
+                    .iter()
+                    .zip(current)
+                    .map(|(&from, &to)| {
+                        let world = match &frame {
+                            Some((step, drawn)) => drawn.transform_point(
+                                step.start
+                                    .inverse_transform_point(from)
+                                    .lerp(step.end.inverse_transform_point(to), alpha),
+                            ),
+                            None => from.lerp(to, alpha),
+                        };
+                        to_local.transform_point3a(world).to_array()
+                    }),
+            );
         for (out, &p) in positions.iter_mut().zip(map) {
-            let p = p as usize;
-            let at = to_local.transform_point3a(simulation.render_from[p].lerp(current[p], alpha));
-            if at.is_finite() {
-                *out = at.to_array();
+            let at = simulation.local_positions[p as usize];
+            if at.iter().all(|c| c.is_finite()) {
+                *out = at;
             }
         }
         // Normals per particle (smooth across welded seams), then per vertex.
-        simulation.local_positions.clear();
-        simulation.local_positions.extend(
-            simulation
-                .render_from
-                .iter()
-                .zip(current)
-                .map(|(from, to)| to_local.transform_point3a(from.lerp(*to, alpha)).to_array()),
-        );
         compute_normals(
             &simulation.local_positions,
             &simulation.sim.model().triangles,

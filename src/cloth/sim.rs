@@ -19,7 +19,7 @@ use super::settings::{
 use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::{StretchLimit, straight_line_limits};
 use super::volume::VolumeConstraint;
-use crate::collide::{Collider, Contact, ContactScratch};
+use crate::collide::{Collider, Contact, ContactScratch, FrameStep};
 use crate::error::ClothError;
 
 /// Edges and stretch limits are swept as this many interleaved streams, each a contiguous
@@ -466,6 +466,55 @@ impl ClothSim {
     pub fn set_colliders(&mut self, colliders: &[Collider]) {
         self.colliders.clear();
         self.colliders.extend_from_slice(colliders);
+    }
+
+    /// Carries the cloth along with the frame it follows (a character) over the coming step,
+    /// so that it feels only `inertia` of the frame's world motion: `1` is physical (nothing
+    /// is carried), `0` simulates the cloth as if it lived in the frame. Call after
+    /// [`ClothSim::set_colliders`] and the pin targets, before [`ClothSim::step`].
+    ///
+    /// The carried part, `s = 1 - inertia` of the step's pose change ([`FrameStep::carry`]),
+    /// moves positions, previous positions and pins rigidly and turns velocities, so the
+    /// state's velocities are relative to the carried motion and nothing is created or lost.
+    /// The colliders are seen in the same way: their start poses are carried too and
+    /// `s` times the frame's velocity field (`v + omega x r`) is taken off theirs. A jump
+    /// ([`FrameStep::jumped`], a teleport) carries the cloth with all of it, whatever the
+    /// inertia; the colliders then start where they end already.
+    pub fn follow_frame(&mut self, frame: &FrameStep, inertia: f32) {
+        let s = if inertia.is_finite() {
+            1.0 - inertia.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let map = frame.carry(if frame.jumped { 1.0 } else { s });
+        if !(map.rotation.is_finite() && map.to.is_finite() && map.pivot.is_finite()) {
+            return;
+        }
+        if !map.is_identity() {
+            let state = &mut self.state;
+            for p in state
+                .positions
+                .iter_mut()
+                .chain(state.previous_positions.iter_mut())
+            {
+                *p = map.point(*p);
+            }
+            for v in &mut state.velocities {
+                *v = map.vector(*v);
+            }
+            for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
+                pin.start = map.point(pin.start);
+            }
+        }
+        for c in &mut self.colliders {
+            if !frame.jumped {
+                c.start = map.pose(&c.start);
+            }
+            if s > 0.0 {
+                c.linear_velocity -= frame.velocity_at(c.end.translation) * s;
+                c.angular_velocity -= frame.angular_velocity * s;
+            }
+        }
     }
 
     /// The colliders.

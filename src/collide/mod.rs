@@ -4,10 +4,12 @@
 //! components in [`plugin`].
 
 pub mod contact;
+pub mod motion;
 pub mod plugin;
 pub mod shapes;
 pub mod trimesh;
 
 pub use contact::{Contact, ContactScratch};
+pub use motion::{FrameStep, FrameTracker, RigidMap, Teleport};
 pub use shapes::{Collider, ContactMaterial, Pose, Shape};
 pub use trimesh::{Aabb, TriMesh};

@@ -14,9 +14,11 @@ use bevy::mesh::Mesh;
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
+use super::motion::FrameTracker;
 use super::shapes::{Collider, ContactMaterial, Pose, Shape};
 use super::trimesh::TriMesh;
 use crate::cloth::mesh::mesh_triangles;
+use crate::cloth::plugin::DrapeSettings;
 use crate::error::ColliderError;
 use crate::schedule::DrapeSystems;
 
@@ -140,7 +142,7 @@ pub struct AnimatedVelocity {
 /// What the solver saw of a collider at the last fixed step (added with [`ClothCollider`]).
 #[derive(Component, Clone, Debug, Default)]
 pub struct ColliderState {
-    previous: Option<Pose>,
+    motion: FrameTracker,
     current: Option<Collider>,
     mesh: Option<(AssetId<Mesh>, Vec3, Arc<TriMesh>)>,
     error: Option<ColliderError>,
@@ -166,6 +168,16 @@ pub struct ColliderWorld {
     pub colliders: Vec<Collider>,
     /// Their entities, in the same order.
     pub entities: Vec<Entity>,
+}
+
+/// The rigid pose (translation and rotation, scale left out) of a global transform, if it is
+/// finite.
+pub(crate) fn world_pose(global: &GlobalTransform) -> Option<Pose> {
+    let (scale, rotation, translation) = global.to_scale_rotation_translation();
+    (scale.is_finite() && rotation.is_finite() && translation.is_finite()).then(|| Pose {
+        translation: translation.into(),
+        rotation: rotation.normalize(),
+    })
 }
 
 /// Moves kinematic colliders and gathers every [`ClothCollider`] into the [`ColliderWorld`]
@@ -262,8 +274,10 @@ fn gather_colliders(
     meshes: Res<Assets<Mesh>>,
     transforms: TransformHelper,
     time: Res<Time>,
+    drape: Option<Res<DrapeSettings>>,
 ) {
     let dt = time.delta_secs();
+    let teleport = drape.map_or(Some(Default::default()), |d| d.teleport);
     world.colliders.clear();
     world.entities.clear();
     for (entity, collider, mut state, kinematic, animated, child_of) in &mut colliders {
@@ -272,18 +286,14 @@ fn gather_colliders(
             let global = transforms
                 .compute_global_transform(entity)
                 .map_err(|_| ColliderError::NonFinitePose)?;
-            let (scale, rotation, translation) = global.to_scale_rotation_translation();
-            if !(scale.is_finite() && rotation.is_finite() && translation.is_finite()) {
-                return Err(ColliderError::NonFinitePose);
-            }
-            let end = Pose {
-                translation: translation.into(),
-                rotation: rotation.normalize(),
-            };
-            let Some(shape) = scaled_shape(&collider.shape, scale, state, &meshes)? else {
+            let end = world_pose(&global).ok_or(ColliderError::NonFinitePose)?;
+            let Some(shape) = scaled_shape(&collider.shape, global.scale(), state, &meshes)? else {
                 return Ok(None);
             };
-            let start = state.previous.unwrap_or(end);
+            // The pose change over the step; after a jump (a teleport) the collider starts
+            // where it ends instead of sweeping through the space between.
+            let motion = state.motion.step(end, dt, teleport.as_ref());
+            let start = motion.sweep_start();
             let (linear, angular) = if let Some(k) = kinematic {
                 (Vec3A::from(k.linear), Vec3A::from(k.angular))
             } else if let Some(a) = animated {
@@ -300,7 +310,7 @@ fn gather_colliders(
                 let omega = Vec3A::from(a.angular);
                 (Vec3A::from(a.linear) + omega.cross(r), omega)
             } else {
-                start.velocity_to(&end, dt)
+                (motion.linear_velocity, motion.angular_velocity)
             };
             let solver_collider = Collider {
                 shape,
@@ -316,7 +326,6 @@ fn gather_colliders(
         })();
         match result {
             Ok(Some(c)) => {
-                state.previous = Some(c.end);
                 state.error = None;
                 world.colliders.push(c.clone());
                 world.entities.push(entity);
@@ -329,7 +338,7 @@ fn gather_colliders(
                 }
                 state.error = Some(err);
                 state.current = None;
-                state.previous = None;
+                state.motion.reset();
             }
         }
     }

@@ -175,6 +175,39 @@ impl Clip {
     }
 }
 
+impl Clip {
+    /// The ground speed at which a character playing this clip at normal speed does not
+    /// skate, m/s: the mean horizontal speed, over one cycle, of whichever of `feet` is lowest
+    /// (the stance foot), relative to the character's frame. A clip that walks in place moves
+    /// its stance foot backwards at the speed the character must move forwards; play it at
+    /// `ground_speed / stance_speed` to match a character controller. `None` without feet or
+    /// for a clip of zero length.
+    pub fn stance_speed(&self, rig: &Rig, feet: &[usize]) -> Option<f32> {
+        const SAMPLES: usize = 240;
+        let (mut pose, mut rate) = (rig.rest_pose(), PoseRate::default());
+        let mut bones = Vec::new();
+        let mut sum = 0.0;
+        let usable = self.duration() > 0.0;
+        if !usable || feet.is_empty() || feet.iter().any(|&f| f >= rig.bones().len()) {
+            return None;
+        }
+        for k in 0..SAMPLES {
+            self.sample(
+                self.duration() * k as f32 / SAMPLES as f32,
+                &mut pose,
+                &mut rate,
+            );
+            rig.forward(&pose, Some(&rate), &mut bones);
+            let stance = feet
+                .iter()
+                .map(|&f| bones[f])
+                .min_by(|a, b| a.translation.y.total_cmp(&b.translation.y))?;
+            sum += stance.linear_velocity.with_y(0.0).length();
+        }
+        Some(sum / SAMPLES as f32)
+    }
+}
+
 fn finite(mut checks: impl Iterator<Item = bool>) -> Result<(), SplineError> {
     match checks.position(|ok| !ok) {
         Some(i) => Err(SplineError::NonFinite(i)),

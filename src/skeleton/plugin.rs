@@ -20,8 +20,9 @@ use super::clip::{Clip, ClipDesc, ClipError};
 use super::humanoid::{BoneProxy, humanoid_proxies};
 use super::ik::{IkChain, IkError, IkResult, IkScratch, IkSettings, solve};
 use super::rig::{BoneState, Pose, PoseRate, Rig};
-use crate::collide::ContactMaterial;
-use crate::collide::plugin::{AnimatedVelocity, ClothCollider};
+use crate::cloth::plugin::DrapeSettings;
+use crate::collide::plugin::{AnimatedVelocity, ClothCollider, world_pose};
+use crate::collide::{ContactMaterial, FrameStep, FrameTracker};
 use crate::schedule::DrapeSystems;
 
 /// A clip file, as loaded; bound to a rig when a [`ClipPlayer`] plays it.
@@ -172,8 +173,8 @@ impl BoneEntity {
     }
 }
 
-/// The pose a skeleton was given at the last fixed step, with its rate and the bones' states
-/// in the character's frame.
+/// The pose a skeleton was given at the last fixed step, with its rate, the bones' states
+/// in the character's frame and the character entity's own motion in the world.
 #[derive(Component, Clone, Debug)]
 pub struct SkeletonPose {
     /// The pose.
@@ -182,6 +183,13 @@ pub struct SkeletonPose {
     pub rate: PoseRate,
     /// Every bone's transform and velocity in the character's frame.
     pub bones: Vec<BoneState>,
+    /// The character entity's world motion over the last fixed step (its whole transform
+    /// chain, parents included), from its pose change; see [`crate::collide::motion`].
+    pub frame: FrameStep,
+    tracker: FrameTracker,
+    /// The character's world transform at this fixed step (`None` if it has no valid one).
+    global: Option<GlobalTransform>,
+    warned_transform: bool,
     bound: Option<(AssetId<ClipAsset>, Result<Clip, ClipError>)>,
 }
 
@@ -198,7 +206,12 @@ impl Plugin for SkeletonPlugin {
         app.init_asset::<ClipAsset>()
             .init_asset_loader::<ClipLoader>()
             .add_systems(PreUpdate, spawn_bones)
-            .add_systems(self.schedule, play_clips.in_set(DrapeSystems::Animate))
+            .add_systems(
+                self.schedule,
+                (track_skeletons, play_clips)
+                    .chain()
+                    .in_set(DrapeSystems::Animate),
+            )
             .add_systems(
                 self.schedule,
                 (solve_ik, pose_bones)
@@ -288,9 +301,44 @@ fn spawn_bones(
                 },
                 pose,
                 bones,
+                frame: FrameStep::at_rest(crate::collide::Pose::IDENTITY),
+                tracker: FrameTracker::default(),
+                global: None,
+                warned_transform: false,
                 bound: None,
             },
         ));
+    }
+}
+
+/// Reads every character's world transform at this fixed step (its whole chain, whatever
+/// moved it) and its motion since the last step; the rest of the step uses this one.
+fn track_skeletons(
+    mut skeletons: Query<(Entity, &mut SkeletonPose)>,
+    transforms: TransformHelper,
+    time: Res<Time>,
+    drape: Option<Res<DrapeSettings>>,
+) {
+    let dt = time.delta_secs();
+    let teleport = drape.map_or(Some(Default::default()), |d| d.teleport);
+    for (entity, mut state) in &mut skeletons {
+        let state = &mut *state;
+        let global = transforms.compute_global_transform(entity).ok();
+        match global.and_then(|g| Some((g, world_pose(&g)?))) {
+            Some((global, pose)) => {
+                state.frame = state.tracker.step(pose, dt, teleport.as_ref());
+                state.global = Some(global);
+                state.warned_transform = false;
+            }
+            None => {
+                if !state.warned_transform {
+                    warn!("skeleton {entity} has no valid transform: its bones are not posed");
+                    state.warned_transform = true;
+                }
+                state.tracker.reset();
+                state.global = None;
+            }
+        }
     }
 }
 
@@ -355,6 +403,16 @@ pub struct IkGoal {
     pub settings: IkSettings,
     /// 0 keeps the keyframed angles, 1 the IK ones; in between blends them.
     pub weight: f32,
+    /// The fastest the IK angles may turn, rad/s: each step they move towards the solution
+    /// by at most this much, so a target that jumps, or a solve that lands on another
+    /// solution, moves the limb instead of teleporting it through the cloth. Default in
+    /// [`IkGoal::DEFAULT_MAX_SPEED`].
+    pub max_speed: f32,
+}
+
+impl IkGoal {
+    /// The default [`IkGoal::max_speed`], rad/s (a fast human arm).
+    pub const DEFAULT_MAX_SPEED: f32 = 10.0;
 }
 
 /// Where an [`IkGoal`]'s effector should go.
@@ -362,13 +420,18 @@ pub struct IkGoal {
 pub enum IkTarget {
     /// A world point.
     Point(Vec3),
+    /// A point in the character's own frame (it moves with the character).
+    CharacterPoint(Vec3),
     /// The origin of an entity (its transform chain at the current fixed step).
     Entity(Entity),
 }
 
 /// Inverse kinematics on a [`Skeleton`]: the goals are solved in order in
-/// [`DrapeSystems::InverseKinematics`], after the clip, before the colliders.
+/// [`DrapeSystems::InverseKinematics`], after the clip, before the colliders. The hinge rates
+/// of the bones it moves (for the colliders' velocities) are the rates of the solved angles
+/// at this step, from a second-order one-sided difference of the last three solves.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
+#[require(IkState)]
 pub struct InverseKinematics {
     /// The goals.
     pub goals: Vec<IkGoal>,
@@ -385,7 +448,12 @@ pub struct IkState {
     chains: Vec<Option<(ChainKey, Result<IkChain, IkError>)>>,
     scratch: IkScratch,
     solved: Pose,
-    previous: Option<Vec<f32>>,
+    /// The final angles of the last two steps (the last first), for the hinge rates.
+    history: [Vec<f32>; 2],
+    /// How many of `history` are filled in.
+    history_len: usize,
+    /// Each goal's last solution (the chain's angles), where the next solve starts.
+    warm: Vec<Vec<f32>>,
 }
 
 type IkCharacters<'w, 's> = Query<
@@ -396,24 +464,16 @@ type IkCharacters<'w, 's> = Query<
         &'static Skeleton,
         &'static mut InverseKinematics,
         &'static mut SkeletonPose,
-        Option<&'static mut IkState>,
+        &'static mut IkState,
     ),
 >;
 
 /// Solves every character's IK goals on top of its keyframed pose.
-fn solve_ik(
-    mut commands: Commands,
-    mut characters: IkCharacters,
-    transforms: TransformHelper,
-    time: Res<Time>,
-) {
+fn solve_ik(mut characters: IkCharacters, transforms: TransformHelper, time: Res<Time>) {
     let dt = time.delta_secs();
-    for (entity, skeleton, mut ik, mut state, ik_state) in &mut characters {
-        let Some(mut ik_state) = ik_state else {
-            commands.entity(entity).insert(IkState::default());
-            continue;
-        };
-        let Ok(character) = transforms.compute_global_transform(entity) else {
+    for (entity, skeleton, mut ik, mut state, mut ik_state) in &mut characters {
+        let state = &mut *state;
+        let Some(character) = state.global else {
             continue;
         };
         let to_local = character.affine().inverse();
@@ -435,22 +495,35 @@ fn solve_ik(
                     warn!("character {entity}: IK goal {g} is ignored: {err}");
                 }
                 ik_state.chains[g] = Some((key, chain));
+                if let Some(warm) = ik_state.warm.get_mut(g) {
+                    warm.clear();
+                }
             }
             let Some((_, Ok(chain))) = &ik_state.chains[g] else {
                 continue;
             };
-            let world_target = match goal.target {
-                IkTarget::Point(p) => Some(p),
+            let target = match goal.target {
+                IkTarget::Point(p) => Some(to_local.transform_point3(p)),
+                IkTarget::CharacterPoint(p) => Some(p),
                 IkTarget::Entity(e) => transforms
                     .compute_global_transform(e)
                     .ok()
-                    .map(|t| t.translation()),
+                    .map(|t| to_local.transform_point3(t.translation())),
             };
-            let Some(world_target) = world_target.filter(|t| t.is_finite()) else {
+            let Some(target) = target.filter(|t| t.is_finite()) else {
                 continue;
             };
-            let target = to_local.transform_point3(world_target);
+            // Start from this goal's last solution (a solve from nearby converges to the nearby
+            // solution, so the arm does not flip to another one between steps), or from the
+            // keyframes the first time.
             ik_state.solved.clone_from(&state.pose);
+            ik_state.warm.resize(ik.goals.len(), Vec::new());
+            let warm = &ik_state.warm[g];
+            if warm.len() == chain.bones.len() {
+                for (&b, &angle) in chain.bones.iter().zip(warm) {
+                    ik_state.solved.angles[b] = angle;
+                }
+            }
             let result = solve(
                 rig,
                 chain,
@@ -459,6 +532,17 @@ fn solve_ik(
                 &goal.settings,
                 &mut ik_state.scratch,
             );
+            // Towards the solution at most `max_speed`; the next solve starts from here.
+            let warm = &mut ik_state.warm[g];
+            let step = goal.max_speed.max(0.0) * dt;
+            if warm.len() == chain.bones.len() && step.is_finite() {
+                for (&b, from) in chain.bones.iter().zip(warm.iter()) {
+                    let to = &mut ik_state.solved.angles[b];
+                    *to = from + (*to - from).clamp(-step, step);
+                }
+            }
+            warm.clear();
+            warm.extend(chain.bones.iter().map(|&b| ik_state.solved.angles[b]));
             let weight = goal.weight.clamp(0.0, 1.0);
             for &b in &chain.bones {
                 let (from, to) = (state.pose.angles[b], ik_state.solved.angles[b]);
@@ -466,39 +550,53 @@ fn solve_ik(
             }
             ik.results[g] = Some(result);
         }
-        // Hinge rates of the bones IK moved: the change of their final angle over the step.
-        if dt > 0.0
-            && let Some(previous) = &ik_state.previous
-            && previous.len() == state.pose.angles.len()
-        {
+        // Hinge rates of the bones IK moved: the rate of their final angle at this step, the
+        // derivative of the parabola through the last three (second order, no lag), or the
+        // last difference while there are only two.
+        let angles = &state.pose.angles;
+        let [last, before] = &ik_state.history;
+        let filled = |h: &Vec<f32>| h.len() == angles.len();
+        if dt > 0.0 && ik_state.history_len >= 1 && filled(last) {
+            let second_order = ik_state.history_len >= 2 && filled(before);
             for b in 0..keyframed.len() {
-                if state.pose.angles[b] != keyframed[b] {
-                    state.rate.angle_rates[b] = (state.pose.angles[b] - previous[b]) / dt;
+                if angles[b] != keyframed[b] {
+                    state.rate.angle_rates[b] = if second_order {
+                        (3.0 * angles[b] - 4.0 * last[b] + before[b]) / (2.0 * dt)
+                    } else {
+                        (angles[b] - last[b]) / dt
+                    };
                 }
             }
         }
-        ik_state.previous = Some(state.pose.angles.clone());
+        let IkState {
+            history,
+            history_len,
+            ..
+        } = &mut *ik_state;
+        history.swap(0, 1);
+        history[0].clone_from(&state.pose.angles);
+        *history_len = (*history_len + 1).min(2);
     }
 }
 
 /// Runs forward kinematics on every skeleton's pose, writes its bone transforms and publishes
-/// the bones' world velocities.
+/// the bones' world velocities: the character entity's own motion (its transform chain at
+/// this fixed step against the last) plus the joints' motion turned into the world.
 fn pose_bones(
-    mut skeletons: Query<(
-        &Skeleton,
-        &SkeletonBones,
-        &mut SkeletonPose,
-        &GlobalTransform,
-    )>,
+    mut skeletons: Query<(&Skeleton, &SkeletonBones, &mut SkeletonPose)>,
     mut bones: Query<(&mut Transform, &mut BoneEntity, &mut AnimatedVelocity)>,
 ) {
-    for (skeleton, skeleton_bones, mut state, global) in &mut skeletons {
+    for (skeleton, skeleton_bones, mut state) in &mut skeletons {
         let state = &mut *state;
         skeleton
             .rig
             .forward(&state.pose, Some(&state.rate), &mut state.bones);
-        // The character's own frame: bone velocities from the clip, turned into the world.
-        let rotation: Quat = global.compute_transform().rotation;
+        let Some(global) = state.global else {
+            continue;
+        };
+        let frame = state.frame;
+        let (scale, rotation, _) = global.to_scale_rotation_translation();
+        let rotation: Quat = rotation.normalize();
         for (i, &bone_entity) in skeleton_bones.entities().iter().enumerate() {
             let Ok((mut transform, mut bone, mut velocity)) = bones.get_mut(bone_entity) else {
                 continue;
@@ -511,8 +609,10 @@ fn pose_bones(
             bone.current = local;
             *transform = local;
             let b = state.bones[i];
-            velocity.linear = rotation * b.linear_velocity;
-            velocity.angular = rotation * b.angular_velocity;
+            let at = global.transform_point(b.translation);
+            velocity.linear =
+                Vec3::from(frame.velocity_at(at.into())) + rotation * (scale * b.linear_velocity);
+            velocity.angular = Vec3::from(frame.angular_velocity) + rotation * b.angular_velocity;
         }
     }
 }

@@ -249,13 +249,15 @@ impl Rig {
     pub fn forward(&self, pose: &Pose, rate: Option<&PoseRate>, out: &mut Vec<BoneState>) {
         out.clear();
         for (b, bone) in self.bones.iter().enumerate() {
-            let angle = pose.angles.get(b).copied().unwrap_or(0.0);
+            let raw = pose.angles.get(b).copied().unwrap_or(0.0);
             let angle = match bone.limits {
-                Some((lo, hi)) => angle.clamp(lo, hi),
-                None => angle,
+                Some((lo, hi)) => raw.clamp(lo, hi),
+                None => raw,
             };
+            // A hinge held at its limit does not move.
             let theta_rate = rate
                 .and_then(|r| r.angle_rates.get(b).copied())
+                .filter(|_| angle == raw)
                 .unwrap_or(0.0);
             let state = match bone.parent {
                 None => BoneState {
