@@ -1,6 +1,7 @@
-//! The main scene: a poncho drapes over a character that walks in place and now and then
-//! waves its right hand (inverse kinematics on top of the walk clip). Capsule and sphere
-//! proxies on the bones hold the cloth; self-collision keeps its folds apart.
+//! The main scene: a poncho drapes over a character that walks through the world (walks,
+//! stops, turns, jogs and comes back) and now and then waves its right hand (inverse
+//! kinematics on top of the walk clip). Capsule and sphere proxies on the bones hold the
+//! cloth; self-collision keeps its folds apart; the camera follows the character.
 //!
 //! ```text
 //! cargo run --release --features render --example poncho
@@ -8,21 +9,34 @@
 //!
 //! With no display (no `DISPLAY` or `WAYLAND_DISPLAY`) it renders offscreen into a few PNG
 //! frames (see `examples/common/offscreen.rs` for where and how many), then prints the scene's
-//! S3 figures.
+//! S3 figures. With no graphics adapter at all (no GPU, no Vulkan driver) it says so, runs the
+//! scene headless and prints its figures.
 //!
-//! W toggles the wave, S self-collision, R resets the poncho, P pauses, C cycles the debug
-//! colours; drag the poncho with the left mouse button, orbit with the right one, scroll to
-//! zoom.
+//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W toggles the wave, S
+//! self-collision, R resets the poncho, P pauses, C cycles the debug colours; drag the poncho
+//! with the left mouse button, orbit with the right one, scroll to zoom.
 
 mod common;
 
 use bevy::prelude::*;
-use bevy_drape::poncho::{Poncho, PonchoScene, PonchoScenePlugin, run_headless};
+use bevy_drape::interact::adapter::find_graphics_adapter;
+use bevy_drape::poncho::{
+    Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
+    run_headless,
+};
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, cloth_material, dress_humanoids, spawn_stage};
+use common::{ExamplePlugin, OrbitCamera, cloth_material, dress_humanoids, spawn_stage};
+
+/// The motion the example starts with.
+const START_MOTION: CharacterMotion = CharacterMotion::Tour;
 
 fn main() {
+    if let Err(reason) = find_graphics_adapter() {
+        println!("poncho: {reason}; running the scene headless instead");
+        print_s3_figures();
+        return;
+    }
     let mut app = App::new();
     let windowed = has_display();
     if windowed {
@@ -36,8 +50,15 @@ fn main() {
     }
     app.add_plugins((DrapePlugins::default(), PonchoScenePlugin))
         .insert_resource(Time::<Fixed>::from_hz(60.0))
+        .insert_resource(PonchoScene {
+            motion: START_MOTION,
+            ..default()
+        })
         .add_systems(Startup, setup)
-        .add_systems(Update, (dress_humanoids, dress_poncho, keys, label));
+        .add_systems(
+            Update,
+            (dress_humanoids, dress_poncho, keys, label, follow_character),
+        );
     app.run();
     if !windowed {
         print_s3_figures();
@@ -45,12 +66,35 @@ fn main() {
 }
 
 /// Runs the scene headless for 10 s and prints its S3 figures (as `cargo run --release
-/// --example scenes -- s3` does).
+/// --example scenes -- s3 --motion walk` does).
 fn print_s3_figures() {
-    let scene = PonchoScene::default();
+    let scene = PonchoScene {
+        motion: CharacterMotion::Walk,
+        ..default()
+    };
     let solver = scene.solver;
     let run = run_headless(scene, 600);
-    println!("S3 (10 s headless): {}", run.json(&solver));
+    if run.particles == 0 {
+        println!("S3: the poncho was not built (assets/meshes/poncho.obj not found?)");
+    } else {
+        println!("S3 (10 s headless): {}", run.json(&solver));
+    }
+}
+
+/// The camera's focus follows the character (smoothly), 1 m above its feet.
+fn follow_character(
+    characters: Query<&GlobalTransform, With<Character>>,
+    mut cameras: Query<&mut OrbitCamera>,
+    time: Res<Time>,
+) {
+    let Ok(character) = characters.single() else {
+        return;
+    };
+    let goal = character.translation() + Vec3::Y;
+    let blend = 1.0 - (-4.0 * time.delta_secs()).exp();
+    for mut orbit in &mut cameras {
+        orbit.focus = orbit.focus.lerp(goal, blend);
+    }
 }
 
 #[derive(Component)]
@@ -102,7 +146,22 @@ fn keys(
     mut drape: ResMut<DrapeSettings>,
     mut scene: ResMut<PonchoScene>,
     mut ponchos: Query<(&mut ClothSimulation, &mut ClothSettings), With<Poncho>>,
+    mut controllers: Query<&mut CharacterController>,
 ) {
+    let motion_keys = [
+        KeyCode::Digit1,
+        KeyCode::Digit2,
+        KeyCode::Digit3,
+        KeyCode::Digit4,
+        KeyCode::Digit5,
+    ];
+    for (key, motion) in motion_keys.into_iter().zip(CharacterMotion::ALL) {
+        if input.just_pressed(key) {
+            for mut controller in &mut controllers {
+                controller.switch_to(motion);
+            }
+        }
+    }
     if input.just_pressed(KeyCode::KeyP) {
         drape.paused = !drape.paused;
     }
@@ -111,7 +170,7 @@ fn keys(
     }
     for (mut simulation, mut settings) in &mut ponchos {
         if input.just_pressed(KeyCode::KeyR) {
-            simulation.sim_mut().reset();
+            simulation.reset();
         }
         if input.just_pressed(KeyCode::KeyS) {
             settings.solver.self_collision = !settings.solver.self_collision;
@@ -123,8 +182,12 @@ fn label(
     timings: Res<DrapeTimings>,
     scene: Res<PonchoScene>,
     ponchos: Query<(&ClothSimulation, &ClothSettings), With<Poncho>>,
+    controllers: Query<&CharacterController>,
     mut labels: Query<&mut Text, With<Label>>,
 ) {
+    let (motion, speed) = controllers
+        .single()
+        .map_or(("-", 0.0), |c| (c.motion.name(), c.speed));
     let Ok((simulation, settings)) = ponchos.single() else {
         return;
     };
@@ -132,7 +195,8 @@ fn label(
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     for mut text in &mut labels {
         text.0 = format!(
-            "poncho: {} particles, {} x {} XPBD, self-collision {} (S), wave {} (W)\n\
+            "motion {motion} (1-5), {speed:.1} m/s\n\
+             poncho: {} particles, {} x {} XPBD, self-collision {} (S), wave {} (W)\n\
              fixed step {:.2} ms: animation {:.2}, IK {:.2}, colliders {:.2}, cloth {:.2}\n\
              max strain {:.1}%, {} collider contacts, {} self-contacts",
             sim.state().len(),

@@ -98,11 +98,20 @@ pub enum CharacterMotion {
     /// Walks on the spot; every 3 s after [`SETTLE_SECONDS`] jumps 10 m sideways and turns a
     /// quarter turn in one step (a respawn), then back.
     Teleport,
+    /// After standing for [`SETTLE_SECONDS`], a tour of all of it: walks, stops, turns left,
+    /// walks, turns left, jogs and stops, then the same again, which brings it back.
+    Tour,
 }
 
 impl CharacterMotion {
     /// Every motion, in the order the `poncho` example's keys cycle them.
-    pub const ALL: [Self; 4] = [Self::InPlace, Self::Walk, Self::Jog, Self::Teleport];
+    pub const ALL: [Self; 5] = [
+        Self::InPlace,
+        Self::Walk,
+        Self::Jog,
+        Self::Teleport,
+        Self::Tour,
+    ];
 
     /// Its name on the command line (`in-place`, `walk`, `jog`, `teleport`).
     pub fn name(&self) -> &'static str {
@@ -111,6 +120,7 @@ impl CharacterMotion {
             Self::Walk => "walk",
             Self::Jog => "jog",
             Self::Teleport => "teleport",
+            Self::Tour => "tour",
         }
     }
 
@@ -119,7 +129,9 @@ impl CharacterMotion {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The controller's script: legs of (seconds, speed m/s, turn rate rad/s), looped.
+    /// The controller's script: legs of (seconds, speed m/s, turn rate rad/s), looped. Each
+    /// script turns the character by half a turn in all, so running it twice brings the
+    /// character back to where it started.
     fn legs(&self) -> &'static [Leg] {
         use std::f32::consts::PI;
         const fn leg(seconds: f32, speed: f32, turn_rate: f32) -> Leg {
@@ -147,10 +159,22 @@ impl CharacterMotion {
             leg(1.0, 0.0, PI),
             leg(0.3, 0.0, 0.0),
         ];
+        // A quarter turn at 1.2 rad/s.
+        const QUARTER: f32 = PI / 2.0 / 1.2;
+        const TOUR: [Leg; 7] = [
+            leg(2.5, 1.2, 0.0),
+            leg(1.0, 0.0, 0.0),
+            leg(QUARTER, 1.2, 1.2),
+            leg(1.5, 1.2, 0.0),
+            leg(QUARTER, 1.2, 1.2),
+            leg(2.0, 3.0, 0.0),
+            leg(1.2, 0.0, 0.0),
+        ];
         match self {
             Self::InPlace | Self::Teleport => &[],
             Self::Walk => &WALK,
             Self::Jog => &JOG,
+            Self::Tour => &TOUR,
         }
     }
 }
@@ -204,6 +228,14 @@ impl CharacterController {
         }
     }
 
+    /// Switches to `motion` at once (no standing first); the character slows down or speeds
+    /// up from where it is.
+    pub fn switch_to(&mut self, motion: CharacterMotion) {
+        self.motion = motion;
+        self.time = SETTLE_SECONDS;
+        self.jumps = 0;
+    }
+
     /// Advances the controller by `dt` and moves `transform` (translation in the ground
     /// plane, heading about +Y). Returns the clip playback speed for the new ground speed.
     pub fn advance(&mut self, dt: f32, transform: &mut Transform) -> f32 {
@@ -213,22 +245,13 @@ impl CharacterController {
             let jumps = (moving / 3.0).floor().max(0.0) as u32;
             if jumps > self.jumps {
                 self.jumps = jumps;
-                let (sign, turn) = if jumps % 2 == 1 {
-                    (1.0, 1.0)
-                } else {
-                    (-1.0, -1.0)
-                };
+                let sign = if jumps % 2 == 1 { 1.0 } else { -1.0 };
                 transform.translation.x += 10.0 * sign;
-                self.heading += turn * std::f32::consts::FRAC_PI_2;
-                transform.rotation = Quat::from_rotation_y(self.heading);
+                self.heading += sign * std::f32::consts::FRAC_PI_2;
             }
-            return 1.0;
         }
         let legs = self.motion.legs();
-        if legs.is_empty() {
-            return 1.0;
-        }
-        let (target, turn_rate) = if moving < 0.0 {
+        let (target, turn_rate) = if moving < 0.0 || legs.is_empty() {
             (0.0, 0.0)
         } else {
             let cycle: f32 = legs.iter().map(|l| l.seconds).sum();
@@ -254,6 +277,10 @@ impl CharacterController {
         transform.translation += forward * distance;
         self.heading += turn_rate * dt;
         transform.rotation = Quat::from_rotation_y(self.heading);
+        if legs.is_empty() {
+            // On the spot: the clip at its own pace.
+            return 1.0;
+        }
         match self.stance_speed {
             Some(stance) if stance > 0.0 => self.speed / stance,
             _ => 0.0,
@@ -323,7 +350,7 @@ fn drive_characters(
                 .ok()
                 .and_then(|clip| clip.stance_speed(rig, &feet));
         }
-        if controller.stance_speed.is_none() && controller.motion != CharacterMotion::InPlace {
+        if controller.stance_speed.is_none() && !controller.motion.legs().is_empty() {
             // The clip is not loaded yet: wait with the motion too.
             continue;
         }

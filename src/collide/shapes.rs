@@ -50,6 +50,8 @@ impl Pose {
             return (Vec3A::ZERO, Vec3A::ZERO);
         }
         let turn = to.rotation * self.rotation.inverse();
+        // The short way round: q and -q are the same rotation.
+        let turn = if turn.w < 0.0 { -turn } else { turn };
         (
             (to.translation - self.translation) / dt,
             Vec3A::from(turn.to_scaled_axis()) / dt,

@@ -3,8 +3,11 @@
 //! [`crate::cloth::ClothSim::release`]; with the `render` feature, `drag::ClothDragPlugin`
 //! does it with the mouse; per-vertex debug colours ([`colors`]); with `render`, collider
 //! gizmos (`gizmos::ColliderGizmoPlugin`); with `egui`, the settings panel
-//! (`panel::DrapePanelPlugin`).
+//! (`panel::DrapePanelPlugin`); with `render`, whether the renderer can start at all
+//! (`adapter::find_graphics_adapter`).
 
+#[cfg(feature = "render")]
+pub mod adapter;
 pub mod colors;
 #[cfg(feature = "render")]
 pub mod drag;
