@@ -189,7 +189,7 @@ fn keys(
     }
     if input.just_pressed(KeyCode::KeyR) {
         for mut cloth in &mut cloths {
-            cloth.sim_mut().reset();
+            cloth.reset();
         }
     }
     let change = if input.just_pressed(KeyCode::ArrowUp) {

@@ -70,7 +70,7 @@ fn keys(
     }
     if input.just_pressed(KeyCode::Space) {
         for mut cloth in &mut cloths {
-            cloth.sim_mut().reset();
+            cloth.reset();
         }
     }
 }

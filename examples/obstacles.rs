@@ -144,7 +144,7 @@ fn keys(
     }
     if input.just_pressed(KeyCode::KeyR) {
         for mut cloth in &mut cloths {
-            cloth.sim_mut().reset();
+            cloth.reset();
         }
         for (start, mut transform) in &mut colliders {
             *transform = start.0;

@@ -81,10 +81,11 @@ fn print_s3_figures() {
     }
 }
 
-/// The camera's focus follows the character (smoothly), 1 m above its feet.
+/// The camera's focus follows the character (smoothly), 1 m above its feet; the orbit keeps
+/// its angles and distance (the mouse turns and zooms it in a window).
 fn follow_character(
     characters: Query<&GlobalTransform, With<Character>>,
-    mut cameras: Query<&mut OrbitCamera>,
+    mut cameras: Query<(&mut OrbitCamera, &mut Transform)>,
     time: Res<Time>,
 ) {
     let Ok(character) = characters.single() else {
@@ -92,8 +93,9 @@ fn follow_character(
     };
     let goal = character.translation() + Vec3::Y;
     let blend = 1.0 - (-4.0 * time.delta_secs()).exp();
-    for mut orbit in &mut cameras {
+    for (mut orbit, mut transform) in &mut cameras {
         orbit.focus = orbit.focus.lerp(goal, blend);
+        *transform = orbit.transform();
     }
 }
 
@@ -110,8 +112,26 @@ fn setup(
         &mut meshes,
         &mut materials,
         Vec3::new(0.0, 1.0, 0.0),
-        2.4,
+        3.2,
     );
+    // A checkerboard of 1 m tiles on the ground, so the walk shows against it.
+    let tile = meshes.add(Plane3d::default().mesh().size(1.0, 1.0));
+    let dark = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.45, 0.48, 0.43),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
+    for i in -12..12 {
+        for j in -12..12 {
+            if (i + j) % 2 == 0 {
+                commands.spawn((
+                    Mesh3d(tile.clone()),
+                    MeshMaterial3d(dark.clone()),
+                    Transform::from_xyz(i as f32 + 0.5, 0.002, j as f32 + 0.5),
+                ));
+            }
+        }
+    }
     commands.spawn((
         Text::new(""),
         TextFont::from_font_size(FontSize::Px(16.0)),

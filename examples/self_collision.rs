@@ -110,7 +110,7 @@ fn keys(
     }
     if input.just_pressed(KeyCode::KeyR) {
         for mut cloth in &mut cloths {
-            cloth.sim_mut().reset();
+            cloth.reset();
         }
     }
 }

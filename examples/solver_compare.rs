@@ -206,7 +206,7 @@ fn keys(
     if input.just_pressed(KeyCode::KeyR) {
         last.0.clear();
         for mut cloth in &mut cloths {
-            cloth.sim_mut().reset();
+            cloth.reset();
             cloth.unfreeze();
         }
     }

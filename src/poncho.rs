@@ -348,7 +348,7 @@ fn drive_characters(
                 .collect();
             controller.stance_speed = crate::skeleton::clip::Clip::new(&asset.0, rig)
                 .ok()
-                .and_then(|clip| clip.stance_speed(rig, &feet));
+                .and_then(|clip| clip.stance_speed(rig, &feet, Vec3::Z));
         }
         if controller.stance_speed.is_none() && !controller.motion.legs().is_empty() {
             // The clip is not loaded yet: wait with the motion too.

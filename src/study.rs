@@ -729,6 +729,7 @@ pub fn fabrik_residuals(targets: usize, max_iterations: u32) -> Vec<FabrikCurve>
                 let settings = IkSettings {
                     tolerance: 0.0,
                     max_iterations: k,
+                    ..IkSettings::default()
                 };
                 let mut errors: Vec<f32> = goals
                     .iter()

@@ -211,6 +211,7 @@ fn run(case: &Case, mover_at: MoverAt, steps: usize) -> Vec<Track> {
                     settings: IkSettings {
                         tolerance: 1e-5,
                         max_iterations: 200,
+                        ..IkSettings::default()
                     },
                     weight: 1.0,
                     max_speed: IkGoal::DEFAULT_MAX_SPEED,

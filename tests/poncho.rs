@@ -50,3 +50,77 @@ fn the_poncho_file_is_what_the_generator_writes() {
         "assets/meshes/poncho.obj is stale: run `cargo run --example generate_poncho`"
     );
 }
+
+#[test]
+fn walking_through_the_world_the_stance_foot_does_not_skate() {
+    use bevy::prelude::*;
+    use bevy::time::TimeUpdateStrategy;
+    use std::time::Duration;
+
+    // The walk clip played at the speed that matches the ground speed: over each stance (the
+    // left foot's is the first half of the clip's cycle, the right foot's the second), the
+    // stance foot is put down and lifted at nearly the same place in the world while the
+    // character walks its first straight at 1.2 m/s.
+    let mut app = bevy_drape::poncho::headless_app(PonchoScene {
+        motion: CharacterMotion::Walk,
+        ..PonchoScene::default()
+    });
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    for _ in 0..500 {
+        app.update();
+        if !app.world().resource::<Assets<ClipAsset>>().is_empty() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    // The ankles at the fixed step (forward kinematics in the character's frame, put in the
+    // world with the character's transform) and the character; the clip's time.
+    let rig = humanoid();
+    let (left, right) = (rig.find("foot_l").unwrap(), rig.find("foot_r").unwrap());
+    let sample = |app: &mut App| -> (Vec3, Vec3, Vec3, f32) {
+        let world = app.world_mut();
+        let mut q = world.query::<(&SkeletonPose, &ClipPlayer, &Transform)>();
+        let (pose, player, character) = q.iter(world).next().unwrap();
+        let foot = |b: usize| character.transform_point(pose.bones[b].translation);
+        (foot(left), foot(right), character.translation, player.time)
+    };
+    // Up to speed at 2.3 s, the first straight ends at 3.5 s.
+    let mut samples = Vec::new();
+    for step in 0..=210 {
+        app.update();
+        if step >= 138 {
+            samples.push(sample(&mut app));
+        }
+    }
+    // Each whole stance in the window (a run of samples in a foot's half cycle, with samples
+    // outside it on both sides).
+    let mut checked = 0;
+    for half in [0.0f32, 0.5] {
+        let in_stance = |t: f32| {
+            let phase = t.rem_euclid(1.0) - half;
+            (0.0..0.5).contains(&phase)
+        };
+        let flags: Vec<bool> = samples.iter().map(|s| in_stance(s.3)).collect();
+        let Some(begin) = (1..flags.len()).find(|&k| flags[k] && !flags[k - 1]) else {
+            continue;
+        };
+        let Some(end) = (begin..flags.len()).find(|&k| !flags[k]) else {
+            continue;
+        };
+        let (first, last) = (&samples[begin], &samples[end - 1]);
+        let foot = |s: &(Vec3, Vec3, Vec3, f32)| if half == 0.0 { s.0 } else { s.1 };
+        let slid = (foot(last) - foot(first)).with_y(0.0).length();
+        let walked = (last.2 - first.2).with_y(0.0).length();
+        assert!(walked > 0.5, "the character walked {walked} m in a stance");
+        assert!(
+            slid < 0.1 * walked,
+            "over a stance the foot slid {slid} m while the character walked {walked} m"
+        );
+        eprintln!("stance: the foot slid {slid:.3} m while the character walked {walked:.3} m");
+        checked += 1;
+    }
+    assert!(checked >= 1, "no whole stance in the window");
+}

@@ -129,7 +129,7 @@ pub fn spawn_stage(
     radius: f32,
 ) {
     commands.spawn((
-        Mesh3d(meshes.add(Plane3d::default().mesh().size(20.0, 20.0))),
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(40.0, 40.0))),
         MeshMaterial3d(materials.add(StandardMaterial {
             base_color: Color::srgb(0.55, 0.58, 0.52),
             perceptual_roughness: 0.9,
@@ -176,15 +176,16 @@ pub fn cloth_material(
 pub fn dress_humanoids(
     mut commands: Commands,
     skeletons: Query<
-        &bevy_drape::prelude::SkeletonBones,
+        (Entity, &bevy_drape::prelude::SkeletonBones),
         Added<bevy_drape::prelude::SkeletonBones>,
     >,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
 ) {
-    for bones in &skeletons {
+    for (skeleton, bones) in &skeletons {
         // The library has no renderer, so its bone entities carry no visibility; the meshes
-        // hung from them need it up the hierarchy.
+        // hung from them need it up the hierarchy, the character's entity included.
+        commands.entity(skeleton).insert(Visibility::default());
         for &bone in bones.entities() {
             commands.entity(bone).insert(Visibility::default());
         }

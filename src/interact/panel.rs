@@ -122,7 +122,7 @@ fn panel(
                 }
                 if ui.button("reset all").clicked() {
                     for (_, _, mut simulation, _) in &mut cloths {
-                        simulation.sim_mut().reset();
+                        simulation.reset();
                     }
                 }
             });
@@ -134,6 +134,21 @@ fn panel(
                 time.set_relative_speed(speed);
             }
             ui.add(egui::Slider::new(&mut drape.gravity.y, -20.0..=0.0).text("gravity y, m/s²"));
+            ui.horizontal(|ui| {
+                let mut on = drape.teleport.is_some();
+                ui.checkbox(&mut on, "teleports");
+                match (on, drape.teleport.as_mut()) {
+                    (true, Some(teleport)) => {
+                        ui.add(
+                            egui::Slider::new(&mut teleport.distance, 0.05..=10.0)
+                                .logarithmic(true)
+                                .text("beyond, m/step"),
+                        );
+                    }
+                    (true, None) => drape.teleport = Some(Default::default()),
+                    (false, _) => drape.teleport = None,
+                }
+            });
 
             ui.separator();
             ui.label(format!(
@@ -163,7 +178,7 @@ fn panel(
                 let mut edited = settings.as_deref().copied().unwrap_or(defaults.0);
                 cloth_controls(ui, &mut edited);
                 if ui.button("reset cloth").clicked() {
-                    simulation.sim_mut().reset();
+                    simulation.reset();
                 }
                 let sim = simulation.sim();
                 let strain = sim.strain();
@@ -303,6 +318,10 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
     ui.add(egui::Slider::new(&mut solver.friction, 0.0..=1.5).text("friction"));
     ui.checkbox(&mut solver.self_collision, "self-collision");
     ui.checkbox(&mut solver.long_range_attachments, "long-range attachments");
+    ui.add(
+        egui::Slider::new(&mut settings.inertia, 0.0..=1.0)
+            .text("inertia (of the followed entity's motion)"),
+    );
 }
 
 fn ms(d: std::time::Duration) -> f64 {

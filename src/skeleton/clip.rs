@@ -177,20 +177,23 @@ impl Clip {
 
 impl Clip {
     /// The ground speed at which a character playing this clip at normal speed does not
-    /// skate, m/s: the mean horizontal speed, over one cycle, of whichever of `feet` is lowest
-    /// (the stance foot), relative to the character's frame. A clip that walks in place moves
-    /// its stance foot backwards at the speed the character must move forwards; play it at
-    /// `ground_speed / stance_speed` to match a character controller. `None` without feet or
-    /// for a clip of zero length.
-    pub fn stance_speed(&self, rig: &Rig, feet: &[usize]) -> Option<f32> {
+    /// skate, m/s: the mean speed, over one cycle, at which the stance foot moves backwards
+    /// in the character's frame (at each instant, whichever of `feet` moves backwards, against
+    /// `forward`, the fastest). A clip that walks in place carries its stance foot back by one
+    /// stride per stance; a character moving forwards at this speed puts the foot down and
+    /// lifts it at the same place in the world. Play the clip at `ground_speed / stance_speed`
+    /// to match a character controller. `None` without feet, for a clip of zero length, or if
+    /// no foot ever moves backwards.
+    pub fn stance_speed(&self, rig: &Rig, feet: &[usize], forward: Vec3) -> Option<f32> {
         const SAMPLES: usize = 240;
-        let (mut pose, mut rate) = (rig.rest_pose(), PoseRate::default());
-        let mut bones = Vec::new();
-        let mut sum = 0.0;
-        let usable = self.duration() > 0.0;
+        let usable = self.duration() > 0.0 && forward.is_finite() && forward != Vec3::ZERO;
         if !usable || feet.is_empty() || feet.iter().any(|&f| f >= rig.bones().len()) {
             return None;
         }
+        let forward = forward.normalize();
+        let (mut pose, mut rate) = (rig.rest_pose(), PoseRate::default());
+        let mut bones = Vec::new();
+        let mut sum = 0.0;
         for k in 0..SAMPLES {
             self.sample(
                 self.duration() * k as f32 / SAMPLES as f32,
@@ -198,13 +201,14 @@ impl Clip {
                 &mut rate,
             );
             rig.forward(&pose, Some(&rate), &mut bones);
-            let stance = feet
+            let backwards = feet
                 .iter()
-                .map(|&f| bones[f])
-                .min_by(|a, b| a.translation.y.total_cmp(&b.translation.y))?;
-            sum += stance.linear_velocity.with_y(0.0).length();
+                .map(|&f| -bones[f].linear_velocity.dot(forward))
+                .fold(0.0f32, f32::max);
+            sum += backwards;
         }
-        Some(sum / SAMPLES as f32)
+        let speed = sum / SAMPLES as f32;
+        (speed > 0.0).then_some(speed)
     }
 }
 

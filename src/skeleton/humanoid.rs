@@ -27,13 +27,13 @@ use super::rig::{BoneDesc, Rig};
 /// Limb radii for collision proxies and meshes, metres.
 pub mod radius {
     /// Upper and lower arms.
-    pub const ARM: f32 = 0.045;
+    pub const ARM: f32 = 0.04;
     /// Thighs.
     pub const THIGH: f32 = 0.07;
     /// Shins.
     pub const SHIN: f32 = 0.055;
     /// Torso (spine and chest).
-    pub const TORSO: f32 = 0.14;
+    pub const TORSO: f32 = 0.12;
     /// Head (a sphere).
     pub const HEAD: f32 = 0.11;
 }

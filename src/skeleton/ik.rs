@@ -100,6 +100,11 @@ pub struct IkSettings {
     pub tolerance: f32,
     /// Most iterations (restarts included). Default: `50`.
     pub max_iterations: u32,
+    /// Whether a stalled solve may restart from other angles. A restart can land on a
+    /// different solution far from the start; a solve that starts from the last step's
+    /// solution to track a moving target should not (`InverseKinematics` turns it off then,
+    /// so a limb never jumps between solutions). Default: `true`.
+    pub restarts: bool,
 }
 
 impl Default for IkSettings {
@@ -107,6 +112,7 @@ impl Default for IkSettings {
         Self {
             tolerance: 1e-3,
             max_iterations: 50,
+            restarts: true,
         }
     }
 }
@@ -326,6 +332,9 @@ pub fn solve(
             0
         };
         error = new_error;
+        if stalls >= 2 && best_error > settings.tolerance && !settings.restarts {
+            break;
+        }
         if stalls >= 2 && best_error > settings.tolerance {
             // Restart from other angles within the limits.
             restarts += 1;

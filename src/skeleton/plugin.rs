@@ -429,7 +429,9 @@ pub enum IkTarget {
 /// Inverse kinematics on a [`Skeleton`]: the goals are solved in order in
 /// [`DrapeSystems::InverseKinematics`], after the clip, before the colliders. The hinge rates
 /// of the bones it moves (for the colliders' velocities) are the rates of the solved angles
-/// at this step, from a second-order one-sided difference of the last three solves.
+/// at this step, from a second-order one-sided difference of the last three solves. Each solve
+/// starts from the goal's last solution without restarts, and the angles move towards it at
+/// most [`IkGoal::max_speed`], so a limb follows its target continuously.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 #[require(IkState)]
 pub struct InverseKinematics {
@@ -519,17 +521,24 @@ fn solve_ik(mut characters: IkCharacters, transforms: TransformHelper, time: Res
             ik_state.solved.clone_from(&state.pose);
             ik_state.warm.resize(ik.goals.len(), Vec::new());
             let warm = &ik_state.warm[g];
-            if warm.len() == chain.bones.len() {
+            let warm_started = warm.len() == chain.bones.len();
+            if warm_started {
                 for (&b, &angle) in chain.bones.iter().zip(warm) {
                     ik_state.solved.angles[b] = angle;
                 }
             }
+            // From the last solution, no restarts: a target out of reach holds the limb at
+            // its closest pose instead of sending it to another solution.
+            let settings = IkSettings {
+                restarts: goal.settings.restarts && !warm_started,
+                ..goal.settings
+            };
             let result = solve(
                 rig,
                 chain,
                 &mut ik_state.solved,
                 target,
-                &goal.settings,
+                &settings,
                 &mut ik_state.scratch,
             );
             // Towards the solution at most `max_speed`; the next solve starts from here.
