@@ -705,7 +705,6 @@ fn character_position(app: &mut App) -> Option<Vec3> {
 }
 
 fn measure(app: &mut App, run: &mut PonchoRun) {
-    use crate::cloth::EdgeKind;
     use crate::collide::Shape;
     let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
     let world = app.world_mut();
@@ -751,15 +750,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
             continue;
         }
         let mut step_max = 0.0f32;
-        for edge in sim
-            .model()
-            .edges
-            .iter()
-            .filter(|e| e.kind == EdgeKind::Structural)
-        {
-            let [a, b] = edge.particles;
-            let strain =
-                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length;
+        for strain in sim.edge_strains() {
             step_max = step_max.max(strain);
             let bin = ((strain / STRAIN_BIN) as usize).min(run.strain_histogram.len() - 1);
             run.strain_histogram[bin] += 1;

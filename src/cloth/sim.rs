@@ -1337,20 +1337,24 @@ impl ClothSim {
         self.self_contacts
     }
 
-    /// Strain `|len - rest| / rest` over the structural edges.
-    pub fn strain(&self) -> StrainStats {
+    /// The strain `|len - rest| / rest` of every structural edge, in the model's order.
+    pub fn edge_strains(&self) -> impl Iterator<Item = f32> + '_ {
         let x = &self.state.positions;
-        let mut stats = StrainStats::default();
-        let mut count = 0usize;
-        for edge in self
-            .model
+        self.model
             .edges
             .iter()
             .filter(|e| e.kind == EdgeKind::Structural)
-        {
-            let [a, b] = edge.particles;
-            let strain =
-                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length;
+            .map(move |edge| {
+                let [a, b] = edge.particles;
+                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length
+            })
+    }
+
+    /// Strain `|len - rest| / rest` over the structural edges.
+    pub fn strain(&self) -> StrainStats {
+        let mut stats = StrainStats::default();
+        let mut count = 0usize;
+        for strain in self.edge_strains() {
             stats.max = stats.max.max(strain);
             stats.mean += strain;
             count += 1;
