@@ -1,4 +1,4 @@
-//! Speed against accuracy, and where each method fails: runs the study of `BENCHMARKS.md`
+//! Speed against accuracy, and where each method fails: runs the study of `docs/benchmarks.md`
 //! ([`bevy_drape::study`]) and writes its charts (SVG and PNG) and their data (CSV) into
 //! `docs/charts/`.
 //!

@@ -18,7 +18,7 @@ use crate::cloth::mesh::grid_mesh_from;
 use crate::cloth::plugin::{Cloth, ClothSettings};
 use crate::cloth::settings::{DivergenceBounds, SolverSettings};
 use crate::collide::plugin::ClothCollider;
-use crate::schedule::DrapeTimings;
+use crate::schedule::{DrapeSystems, DrapeTimings};
 use crate::skeleton::humanoid::humanoid;
 use crate::skeleton::ik::IkSettings;
 use crate::skeleton::plugin::{
@@ -308,7 +308,12 @@ impl Plugin for PonchoScenePlugin {
         }
         app.init_resource::<PonchoScene>()
             .add_systems(Startup, spawn_poncho_scene)
-            .add_systems(FixedUpdate, (drive_characters, wave));
+            // As a game's controller would, in `FixedUpdate`; ordered before the drape sets
+            // should the drape schedule be `FixedUpdate` too.
+            .add_systems(
+                FixedUpdate,
+                (drive_characters, wave).before(DrapeSystems::Prepare),
+            );
     }
 }
 
@@ -466,7 +471,7 @@ pub fn poncho_mesh(desc: &PonchoDesc) -> Mesh {
     }
 }
 
-/// The figures of one headless run of the scene (scene S3 of `BENCHMARKS.md`). Strain,
+/// The figures of one headless run of the scene (scene S3 of `docs/benchmarks.md`). Strain,
 /// centroid and energy figures are taken over the steps after the first
 /// [`SETTLE_SECONDS`] (the poncho falling onto the character is left out).
 #[derive(Clone, Debug, Default)]

@@ -1,4 +1,4 @@
-//! The standard scenes every figure of the crate comes from (see `BENCHMARKS.md`), built on
+//! The standard scenes every figure of the crate comes from (see `docs/benchmarks.md`), built on
 //! the pure cores so they run without an App: the `scenes` example, the benches and the
 //! accuracy tests all use these.
 

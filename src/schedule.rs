@@ -49,7 +49,8 @@ pub struct DrapeTimings {
     pub cloth: Duration,
     /// Fixed steps measured so far.
     pub steps: u64,
-    marks: [Option<Instant>; 4],
+    /// When the set before the stage being timed ended.
+    stage_start: Option<Instant>,
 }
 
 impl DrapeTimings {
@@ -58,24 +59,22 @@ impl DrapeTimings {
         self.animation + self.inverse_kinematics + self.colliders + self.cloth
     }
 
-    fn mark(&mut self, stage: usize) {
+    /// The set `ended` has just finished: its stage's time is the time since the set before
+    /// it ended.
+    fn set_ended(&mut self, ended: DrapeSystems) {
         let now = Instant::now();
-        if stage < self.marks.len() {
-            self.marks[stage] = Some(now);
-        }
-        if stage == 0 {
-            return;
-        }
-        let since = |mark: Option<Instant>| mark.map_or(Duration::ZERO, |m| now - m);
-        match stage {
-            1 => self.animation = since(self.marks[0]),
-            2 => self.inverse_kinematics = since(self.marks[1]),
-            3 => self.colliders = since(self.marks[2]),
-            _ => {
-                self.cloth = since(self.marks[3]);
+        let elapsed = self.stage_start.map_or(Duration::ZERO, |start| now - start);
+        match ended {
+            DrapeSystems::Prepare | DrapeSystems::Writeback => {}
+            DrapeSystems::Animate => self.animation = elapsed,
+            DrapeSystems::InverseKinematics => self.inverse_kinematics = elapsed,
+            DrapeSystems::Colliders => self.colliders = elapsed,
+            DrapeSystems::Step => {
+                self.cloth = elapsed;
                 self.steps += 1;
             }
         }
+        self.stage_start = Some(now);
     }
 }
 
@@ -120,6 +119,7 @@ impl Plugin for DrapeSchedulePlugin {
             )
             .init_resource::<DrapeTimings>()
             .init_resource::<crate::cloth::plugin::DrapeSettings>();
+        // A mark after each set times the stage that set ran.
         let sets = [
             DrapeSystems::Prepare,
             DrapeSystems::Animate,
@@ -127,19 +127,14 @@ impl Plugin for DrapeSchedulePlugin {
             DrapeSystems::Colliders,
             DrapeSystems::Step,
         ];
-        for stage in 0..4 {
-            app.add_systems(
-                self.schedule,
-                (move |mut timings: ResMut<DrapeTimings>| timings.mark(stage))
-                    .after(sets[stage])
-                    .before(sets[stage + 1]),
-            );
+        for (k, set) in sets.into_iter().enumerate() {
+            let mark = move |mut timings: ResMut<DrapeTimings>| timings.set_ended(set);
+            match sets.get(k + 1) {
+                Some(&next) => app.add_systems(self.schedule, mark.after(set).before(next)),
+                None => app.add_systems(self.schedule, mark.after(set)),
+            };
         }
-        app.add_systems(
-            self.schedule,
-            (|mut timings: ResMut<DrapeTimings>| timings.mark(4)).after(DrapeSystems::Step),
-        )
-        .configure_sets(
+        app.configure_sets(
             PostUpdate,
             DrapeSystems::Writeback.after(TransformSystems::Propagate),
         );

@@ -1,4 +1,4 @@
-//! The speed-against-accuracy study of `BENCHMARKS.md` ("Speed against accuracy"): the
+//! The speed-against-accuracy study of `docs/benchmarks.md` ("Speed against accuracy"): the
 //! measurements behind the charts the `speed_accuracy` example draws, as plain functions on
 //! the pure cores, so that tests can run them on tiny budgets.
 //!
