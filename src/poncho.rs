@@ -26,7 +26,7 @@ use crate::skeleton::plugin::{
 };
 
 /// Where the poncho comes from.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Reflect)]
 pub enum PonchoSource {
     /// An OBJ file in the assets folder, loaded with the asset server (needs
     /// [`bevy_obj::ObjPlugin`], which [`PonchoScenePlugin`] adds).
@@ -36,7 +36,8 @@ pub enum PonchoSource {
 }
 
 /// The scene's parameters, read when it is spawned.
-#[derive(Resource, Clone, Debug, PartialEq)]
+#[derive(Resource, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
 pub struct PonchoScene {
     /// The poncho mesh. Default: `meshes/poncho.obj`.
     pub source: PonchoSource,
@@ -83,17 +84,19 @@ impl Default for PonchoScene {
 }
 
 /// Marks the poncho cloth.
-#[derive(Component, Clone, Copy, Debug, Default)]
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
 pub struct Poncho;
 
 /// Marks the character.
-#[derive(Component, Clone, Copy, Debug, Default)]
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
 pub struct Character;
 
 /// How the scene's character moves through the world. Its entity is moved by
 /// [`CharacterController`] in `FixedUpdate`, as a game's character controller would, while the
 /// walk clip plays in place at the speed that matches the ground speed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
 pub enum CharacterMotion {
     /// Walks on the spot (the clip alone).
     #[default]
@@ -208,7 +211,8 @@ struct Leg {
 /// a set rate) and plays the walk clip at the speed that matches its ground speed
 /// ([`Clip::stance_speed`](crate::skeleton::clip::Clip::stance_speed)), so the feet do not
 /// skate.
-#[derive(Component, Clone, Debug, PartialEq)]
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct CharacterController {
     /// The motion.
     pub motion: CharacterMotion,
@@ -306,7 +310,8 @@ impl Plugin for PonchoScenePlugin {
         if !app.is_plugin_added::<bevy_obj::ObjPlugin>() {
             app.add_plugins(bevy_obj::ObjPlugin);
         }
-        app.init_resource::<PonchoScene>()
+        app.register_type::<(PonchoScene, Poncho, Character, CharacterController)>()
+            .init_resource::<PonchoScene>()
             .add_systems(Startup, spawn_poncho_scene)
             // As a game's controller would, in `FixedUpdate`; ordered before the drape sets
             // should the drape schedule be `FixedUpdate` too.

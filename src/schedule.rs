@@ -12,7 +12,8 @@ use bevy::app::{App, Plugin, PostUpdate};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
 use bevy::prelude::FixedPostUpdate;
-use bevy::prelude::{ResMut, Resource};
+use bevy::prelude::{ReflectResource, ResMut, Resource};
+use bevy::reflect::Reflect;
 use bevy::transform::TransformSystems;
 use std::time::{Duration, Instant};
 
@@ -37,7 +38,8 @@ pub enum DrapeSystems {
 /// Wall time of the stages of the last fixed step, measured between the [`DrapeSystems`]
 /// sets: keyframed animation, inverse kinematics, collider gathering, cloth stepping (the
 /// cloth's own build in [`DrapeSystems::Prepare`] is not counted).
-#[derive(Resource, Debug, Clone, Default, PartialEq)]
+#[derive(Resource, Debug, Clone, Default, PartialEq, Reflect)]
+#[reflect(Resource)]
 pub struct DrapeTimings {
     /// [`DrapeSystems::Animate`].
     pub animation: Duration,
@@ -50,6 +52,7 @@ pub struct DrapeTimings {
     /// Fixed steps measured so far.
     pub steps: u64,
     /// When the set before the stage being timed ended.
+    #[reflect(ignore)]
     stage_start: Option<Instant>,
 }
 
@@ -117,6 +120,7 @@ impl Plugin for DrapeSchedulePlugin {
                 )
                     .chain(),
             )
+            .register_type::<(DrapeTimings, crate::cloth::plugin::DrapeSettings)>()
             .init_resource::<DrapeTimings>()
             .init_resource::<crate::cloth::plugin::DrapeSettings>();
         // A mark after each set times the stage that set ran.

@@ -761,3 +761,63 @@ fn debug_colours_are_written_into_the_mesh_and_white_when_off() {
     app.update();
     assert_eq!(colours(&app), Some(white));
 }
+
+#[test]
+fn settings_and_components_are_reflected_so_an_inspector_can_edit_them() {
+    use bevy::ecs::reflect::{ReflectComponent, ReflectResource};
+    use bevy::reflect::GetPath;
+    let mut app = app();
+    let grid = GridDesc::square(1.0, 4, Vec3::ZERO);
+    let cloth = spawn_cloth(&mut app, &grid, Cloth::default(), Transform::default());
+    app.world_mut()
+        .entity_mut(cloth)
+        .insert(ClothSettings::default());
+    app.update();
+    let registry = app.world().resource::<AppTypeRegistry>().clone();
+    let registry = registry.read();
+    // Every component and resource a game edits is registered with its reflected data.
+    for (name, component) in [
+        ("Cloth", true),
+        ("ClothSettings", true),
+        ("ClothCollider", true),
+        ("KinematicVelocity", true),
+        ("ClipPlayer", true),
+        ("InverseKinematics", true),
+        ("BoneColliders", true),
+        ("DrapeSettings", false),
+        ("DefaultClothSettings", false),
+        ("DrapeTimings", false),
+    ] {
+        let registration = registry
+            .get_with_short_type_path(name)
+            .unwrap_or_else(|| panic!("{name} is not registered"));
+        if component {
+            assert!(registration.data::<ReflectComponent>().is_some(), "{name}");
+        } else {
+            assert!(registration.data::<ReflectResource>().is_some(), "{name}");
+        }
+    }
+    // An edit through reflection, as an inspector makes it, reaches the component.
+    let reflect = registry
+        .get_with_short_type_path("ClothSettings")
+        .unwrap()
+        .data::<ReflectComponent>()
+        .unwrap()
+        .clone();
+    drop(registry);
+    let mut entity = app.world_mut().entity_mut(cloth);
+    let mut settings = reflect.reflect_mut(&mut entity).unwrap();
+    *settings
+        .reflect_path_mut("solver.substeps")
+        .unwrap()
+        .try_downcast_mut::<u32>()
+        .unwrap() = 13;
+    assert_eq!(
+        app.world()
+            .get::<ClothSettings>(cloth)
+            .unwrap()
+            .solver
+            .substeps,
+        13
+    );
+}

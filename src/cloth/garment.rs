@@ -2,6 +2,7 @@
 //! for Wavefront OBJ, so a pattern can be saved into `assets/` and loaded like any model
 //! (`cargo run --example generate_poncho` writes `assets/meshes/poncho.obj`).
 
+use bevy::reflect::Reflect;
 use std::fmt::Write;
 
 use bevy::math::{Vec2, Vec3};
@@ -13,7 +14,7 @@ use crate::error::ClothError;
 /// plane facing +Y, centred on the origin, with the triangles that have a vertex within
 /// `neck_radius` of the centre cut out. The vertices left on the hole's edge within half a
 /// spacing of the circle are moved in onto it, so the hole is rounder than the grid's steps.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct PonchoDesc {
     /// Side of the square, metres. Default: `1.3`.
     pub size: f32,

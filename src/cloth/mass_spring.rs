@@ -42,6 +42,7 @@
 //! the substep below [`AUTO_SUBSTEP_SAFETY`] of it.
 
 use bevy::math::Vec3A;
+use bevy::reflect::Reflect;
 
 use super::constraints::dihedral_angle_and_gradients;
 use super::model::{ClothModel, Edge, EdgeKind};
@@ -54,7 +55,7 @@ pub const AUTO_SUBSTEP_SAFETY: f32 = 0.9;
 pub const MAX_AUTO_SUBSTEPS: u32 = 4096;
 
 /// Stiffness and damping of one family of springs.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct SpringConstants {
     /// Stiffness `k`, N/m.
     pub stiffness: f32,
@@ -63,7 +64,7 @@ pub struct SpringConstants {
 }
 
 /// The constants of the three spring families.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct SpringSettings {
     /// Structural springs. Default: `k = 1000`, `c = 0.02`.
     pub structural: SpringConstants,

@@ -40,7 +40,8 @@ use crate::schedule::DrapeSystems;
 ///     ));
 /// }
 /// ```
-#[derive(Component, Clone, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
 #[require(Transform)]
 pub struct Cloth {
     /// Vertices held at their rest position relative to this entity's transform: moving the
@@ -86,7 +87,7 @@ impl Cloth {
 }
 
 /// A cloth vertex held at `offset` in the local frame of the entity `target`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct VertexAttachment {
     /// The cloth vertex.
     pub vertex: u32,
@@ -98,7 +99,8 @@ pub struct VertexAttachment {
 
 /// Cloth parameters of one cloth entity. A cloth without this component uses
 /// [`DefaultClothSettings`].
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct ClothSettings {
     /// Areal density, kg/m^2. Default: `0.1`.
     pub density: f32,
@@ -135,7 +137,7 @@ impl Default for ClothSettings {
 
 /// What happens to a cloth that diverges. Either way a [`ClothDiverged`] message is sent and
 /// the mesh never receives the diverged positions.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 pub enum OnDivergence {
     /// Put the cloth back where it was before the diverging step, at rest, and stop stepping
     /// it until its [`ClothSettings`] change (or [`ClothSimulation::unfreeze`]).
@@ -171,16 +173,19 @@ impl ClothSettings {
 }
 
 /// The [`ClothSettings`] of every cloth that has none of its own.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Reflect)]
+#[reflect(Resource)]
 pub struct DefaultClothSettings(pub ClothSettings);
 
 /// The debug colours every cloth's mesh shows (vertex colours, multiplied with its
 /// material's colour; off shows the mesh's own vertex colours, or white). Default: off.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource)]
 pub struct ClothDebugColors(pub DebugColorMode);
 
 /// World-wide simulation parameters.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
 pub struct DrapeSettings {
     /// Gravity, m/s^2. Default: `(0, -9.81, 0)`.
     pub gravity: Vec3,
@@ -312,7 +317,8 @@ impl Default for ClothPlugin {
 
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<DefaultClothSettings>()
+        app.register_type::<(Cloth, ClothSettings, DefaultClothSettings, ClothDebugColors)>()
+            .init_resource::<DefaultClothSettings>()
             .init_resource::<DrapeSettings>()
             .init_resource::<ClothDebugColors>()
             .add_message::<ClothDiverged>()

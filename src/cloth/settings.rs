@@ -3,9 +3,10 @@
 use super::mass_spring::SpringSettings;
 use super::volume::VolumeSettings;
 use crate::error::ClothError;
+use bevy::reflect::Reflect;
 
 /// The constraint solver a cloth uses.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default, Reflect)]
 pub enum SolverMethod {
     /// XPBD (Macklin, Mueller and Chentanez 2016): compliant constraints with accumulated
     /// Lagrange multipliers; the material stiffness does not depend on the iteration count.
@@ -50,7 +51,7 @@ impl SolverMethod {
 
 /// When a cloth counts as diverged (checked after every fixed step by
 /// [`crate::cloth::ClothSim::divergence`]); a non-finite position or velocity always does.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct DivergenceBounds {
     /// Largest structural strain `|len - rest| / rest` allowed. Default: `1.0` (an edge
     /// stretched to twice its length).
@@ -72,7 +73,7 @@ impl Default for DivergenceBounds {
 }
 
 /// How velocities are damped (see [`crate::cloth::damping`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Reflect)]
 pub enum DampingMode {
     /// Damps only the motion that is not rigid (Mueller et al. 2006, section 3.5): a falling or
     /// spinning cloth keeps its momentum.
@@ -87,7 +88,7 @@ pub enum DampingMode {
 /// Units are SI. Compliances are inverse stiffnesses per constraint: `stretch_compliance` in
 /// m/N (a distance constraint behaves as a spring of stiffness `1 / stretch_compliance`),
 /// `bend_compliance` in 1/(N m) (per bending pair, on the dihedral angle in radians).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct SolverSettings {
     /// The constraint solver. Default: [`SolverMethod::Xpbd`].
     pub method: SolverMethod,
@@ -160,7 +161,7 @@ pub struct SolverSettings {
 /// band), so it does not flip between two counts every step. The count stays within
 /// `min_substeps ..= max_substeps`; [`crate::cloth::ClothSim::last_substeps`] reports the one
 /// used. The first step uses [`SolverSettings::substeps`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct AdaptiveSubsteps {
     /// The largest structural strain `|len - rest| / rest` to allow. Default: `0.01`.
     pub target_strain: f32,

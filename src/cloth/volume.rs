@@ -9,12 +9,13 @@
 //! multiplier, once per iteration.
 
 use bevy::math::Vec3A;
+use bevy::reflect::Reflect;
 
 use super::model::ClothModel;
 use crate::error::ClothError;
 
 /// Settings of the volume constraint.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct VolumeSettings {
     /// The target volume as a multiple of the rest volume. Default: `1.0`.
     pub pressure: f32,

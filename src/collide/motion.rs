@@ -18,12 +18,13 @@
 //! [`ClothSim::follow_frame`](crate::cloth::ClothSim::follow_frame)).
 
 use bevy::math::{Quat, Vec3A};
+use bevy::reflect::Reflect;
 
 use super::shapes::Pose;
 
 /// When a frame's pose change over one fixed step counts as a jump (a teleport, a respawn)
 /// rather than motion.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct Teleport {
     /// A move of the frame's origin farther than this in one step is a jump, metres.
     /// Default: `1.0` (60 m/s at 60 Hz).

@@ -25,7 +25,7 @@ use crate::schedule::DrapeSystems;
 /// The geometry of a [`ClothCollider`], in the entity's local frame (scaled by its
 /// transform's scale: spheres by the largest axis, capsules' radius by the largest of X and
 /// Z and their length by Y, meshes exactly).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Reflect)]
 pub enum ColliderShape {
     /// A ball of `radius` about the origin.
     Sphere {
@@ -52,7 +52,8 @@ pub enum ColliderShape {
 /// Its pose is taken from its transform chain at each fixed step; its velocity from a
 /// [`KinematicVelocity`], else an [`AnimatedVelocity`] on it or on its parent (a bone), else
 /// the change of its pose over the step.
-#[derive(Component, Clone, Debug, PartialEq)]
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
 #[require(Transform, ColliderState)]
 pub struct ClothCollider {
     /// The geometry.
@@ -121,7 +122,8 @@ impl ClothCollider {
 
 /// A constant velocity the collider moves with: every fixed step its [`Transform`] moves by
 /// `linear dt` and turns by `angular dt` (both in its parent's frame), and contacts use it.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct KinematicVelocity {
     /// Linear velocity, m/s.
     pub linear: Vec3,
@@ -131,7 +133,8 @@ pub struct KinematicVelocity {
 
 /// The world-frame velocity of the entity's origin at the current fixed step, written by an
 /// animation system (the skeleton's forward kinematics) before the colliders are read.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct AnimatedVelocity {
     /// Linear velocity, m/s.
     pub linear: Vec3,
@@ -189,12 +192,14 @@ pub struct ColliderPlugin {
 
 impl Plugin for ColliderPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<ColliderWorld>().add_systems(
-            self.schedule,
-            (move_kinematic_colliders, gather_colliders)
-                .chain()
-                .in_set(DrapeSystems::Colliders),
-        );
+        app.register_type::<(ClothCollider, KinematicVelocity, AnimatedVelocity)>()
+            .init_resource::<ColliderWorld>()
+            .add_systems(
+                self.schedule,
+                (move_kinematic_colliders, gather_colliders)
+                    .chain()
+                    .in_set(DrapeSystems::Colliders),
+            );
     }
 }
 

@@ -1,5 +1,6 @@
 //! Collider shapes, poses and the per-step view of a collider the solvers use.
 
+use bevy::reflect::Reflect;
 use std::sync::Arc;
 
 use bevy::math::{Quat, Vec3A};
@@ -184,7 +185,7 @@ fn sphere_distance(d: Vec3A, radius: f32, reach: f32) -> Option<(f32, Vec3A)> {
 }
 
 /// Friction and restitution of a contact.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct ContactMaterial {
     /// Coulomb friction coefficient `mu`. Default: `0.5`.
     pub friction: f32,

@@ -2,9 +2,10 @@
 //! state.
 
 use crate::cloth::{ClothSim, EdgeKind};
+use bevy::reflect::Reflect;
 
 /// What the debug colours show.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 pub enum DebugColorMode {
     /// No debug colours: the material's colour.
     #[default]

@@ -21,6 +21,7 @@
 //! forearms 0.25. The pelvis stands 0.93 m above the soles at rest.
 
 use bevy::math::{Quat, Vec3};
+use bevy::reflect::Reflect;
 
 use super::rig::{BoneDesc, Rig};
 
@@ -188,7 +189,7 @@ mod tests {
 
 /// A collision proxy on a bone: a capsule (a sphere when `half_length` is 0) in the bone's
 /// frame.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct BoneProxy {
     /// The bone's name.
     pub bone: String,

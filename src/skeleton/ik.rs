@@ -32,6 +32,7 @@
 //! as the hinges allow.
 
 use bevy::math::{Quat, Vec3};
+use bevy::reflect::Reflect;
 
 use super::rig::{Pose, Rig};
 
@@ -94,7 +95,7 @@ impl IkChain {
 }
 
 /// When a solve stops.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct IkSettings {
     /// Distance from the target that counts as reached, metres. Default: `0.001`.
     pub tolerance: f32,
@@ -118,7 +119,7 @@ impl Default for IkSettings {
 }
 
 /// What a solve did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct IkResult {
     /// Iterations used.
     pub iterations: u32,

@@ -80,7 +80,8 @@ pub struct Skeleton {
 /// child entity of its bone, moving with it and taking its velocity from the joints'
 /// ([`AnimatedVelocity`]). A proxy naming a bone the rig does not have is skipped with a
 /// warning naming the entity.
-#[derive(Component, Clone, Debug, PartialEq)]
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct BoneColliders {
     /// The proxies.
     pub proxies: Vec<BoneProxy>,
@@ -106,11 +107,13 @@ impl BoneColliders {
 }
 
 /// Marks an entity spawned for a [`BoneColliders`] proxy.
-#[derive(Component, Clone, Debug, PartialEq)]
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct BoneProxyOf(pub Entity);
 
 /// Plays a clip on the [`Skeleton`] of the same entity.
-#[derive(Component, Clone, Debug)]
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(Component)]
 pub struct ClipPlayer {
     /// The clip.
     pub clip: Handle<ClipAsset>,
@@ -203,7 +206,8 @@ pub struct SkeletonPlugin {
 
 impl Plugin for SkeletonPlugin {
     fn build(&self, app: &mut App) {
-        app.init_asset::<ClipAsset>()
+        app.register_type::<(BoneColliders, BoneProxyOf, ClipPlayer, InverseKinematics)>()
+            .init_asset::<ClipAsset>()
             .init_asset_loader::<ClipLoader>()
             .add_systems(PreUpdate, spawn_bones)
             .add_systems(
@@ -389,7 +393,7 @@ fn play_clips(mut players: Players, clips: Res<Assets<ClipAsset>>, time: Res<Tim
 
 /// One IK goal of a character: a chain, where its effector should be, and how much IK
 /// overrides the keyframes.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct IkGoal {
     /// The chain's last bone.
     pub end_bone: String,
@@ -416,7 +420,7 @@ impl IkGoal {
 }
 
 /// Where an [`IkGoal`]'s effector should go.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub enum IkTarget {
     /// A world point.
     Point(Vec3),
@@ -432,7 +436,8 @@ pub enum IkTarget {
 /// at this step, from a second-order one-sided difference of the last three solves. Each solve
 /// starts from the goal's last solution without restarts, and the angles move towards it at
 /// most [`IkGoal::max_speed`], so a limb follows its target continuously.
-#[derive(Component, Clone, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component)]
 #[require(IkState)]
 pub struct InverseKinematics {
     /// The goals.
