@@ -78,15 +78,9 @@ pub enum ClothError {
         /// The number of vertices.
         vertex_count: usize,
     },
-    /// The mesh is not a triangle list.
-    #[error("the mesh is not a triangle list")]
-    NotTriangleList,
-    /// The mesh has no `Float32x3` position attribute.
-    #[error("the mesh has no Float32x3 position attribute")]
-    MissingPositions,
-    /// The mesh data lives only in the render world (its asset usage lacks `MAIN_WORLD`).
-    #[error("the mesh data is not in the main world; create it with RenderAssetUsages::MAIN_WORLD")]
-    MeshDataUnavailable,
+    /// The mesh cannot be read as triangles.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
     /// A setting is out of its valid range.
     #[error("setting `{name}` = {value} is invalid: {reason}")]
     InvalidSetting {
@@ -161,5 +155,19 @@ pub enum ColliderError {
     },
     /// The collider mesh could not be read.
     #[error("the collider mesh cannot be read: {0}")]
-    Mesh(#[from] ClothError),
+    Mesh(#[from] MeshError),
+}
+
+/// Why a [`bevy::mesh::Mesh`] cannot be read as triangles ([`crate::mesh::mesh_triangles`]).
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum MeshError {
+    /// The mesh is not a triangle list.
+    #[error("the mesh is not a triangle list")]
+    NotTriangleList,
+    /// The mesh has no `Float32x3` position attribute.
+    #[error("the mesh has no Float32x3 position attribute")]
+    MissingPositions,
+    /// The mesh data lives only in the render world (its asset usage lacks `MAIN_WORLD`).
+    #[error("the mesh data is not in the main world; create it with RenderAssetUsages::MAIN_WORLD")]
+    MeshDataUnavailable,
 }

@@ -8,6 +8,7 @@ pub use bevy_obj;
 pub mod collide;
 pub mod error;
 pub mod interact;
+pub mod mesh;
 pub mod poncho;
 pub mod scenes;
 pub mod schedule;
@@ -27,6 +28,7 @@ use skeleton::plugin::SkeletonPlugin;
 /// Everything most users import.
 pub mod prelude {
     pub use crate::DrapePlugins;
+    pub use crate::cloth::debug_colors::DebugColorMode;
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
@@ -41,8 +43,7 @@ pub mod prelude {
         AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,
         ColliderWorld, KinematicVelocity,
     };
-    pub use crate::error::{ClothError, ClothWarning, ColliderError};
-    pub use crate::interact::colors::DebugColorMode;
+    pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};

@@ -8,9 +8,9 @@ use bevy::math::Vec3A;
 use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use bevy_drape::cloth::mesh::mesh_triangles;
 use bevy_drape::cloth::{VolumeSettings, weld};
 use bevy_drape::collide::{Collider, Pose, Shape};
+use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
 
 const DT: f32 = 1.0 / 60.0;

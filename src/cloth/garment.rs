@@ -197,7 +197,7 @@ mod tests {
         .unwrap();
         let text = to_obj(&mesh, "poncho");
         let back = bevy_obj::mesh::load_obj_as_mesh(text.as_bytes(), &Default::default()).unwrap();
-        let (positions, indices) = crate::cloth::mesh::mesh_triangles(&back).unwrap();
+        let (positions, indices) = crate::mesh::mesh_triangles(&back).unwrap();
         assert_eq!(positions.len(), mesh.positions.len());
         assert_eq!(indices.len(), mesh.indices.len());
         // The same triangles, whatever order the loader numbered the vertices in.

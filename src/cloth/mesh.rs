@@ -1,34 +1,12 @@
-//! Between Bevy's [`Mesh`] asset and the cloth core: reading triangles out of a mesh, building
-//! the grid as a mesh, and writing positions and normals back.
+//! Between Bevy's [`Mesh`] asset and the cloth core: building the grid (or a garment pattern)
+//! as a mesh, and the normals written back into it (reading triangles out of any mesh is
+//! [`crate::mesh::mesh_triangles`]).
 
 use bevy::asset::RenderAssetUsages;
 use bevy::math::Vec3;
-use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
 
 use super::model::{GridDesc, GridMesh};
-use crate::error::ClothError;
-
-/// The vertex positions and triangle indices of a triangle-list mesh.
-pub fn mesh_triangles(mesh: &Mesh) -> Result<(Vec<Vec3>, Vec<u32>), ClothError> {
-    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
-        return Err(ClothError::NotTriangleList);
-    }
-    let positions = match mesh.try_attribute_option(Mesh::ATTRIBUTE_POSITION) {
-        Err(_) => return Err(ClothError::MeshDataUnavailable),
-        Ok(Some(VertexAttributeValues::Float32x3(p))) => {
-            p.iter().map(|&p| Vec3::from_array(p)).collect::<Vec<_>>()
-        }
-        Ok(_) => return Err(ClothError::MissingPositions),
-    };
-    let indices = match mesh.try_indices_option() {
-        Err(_) => return Err(ClothError::MeshDataUnavailable),
-        Ok(Some(Indices::U16(i))) => i.iter().map(|&i| i as u32).collect(),
-        Ok(Some(Indices::U32(i))) => i.clone(),
-        // A non-indexed triangle list: every three vertices are a triangle.
-        Ok(None) => (0..positions.len() as u32).collect(),
-    };
-    Ok((positions, indices))
-}
 
 /// The grid of `desc` as a mesh with positions, normals, texture coordinates and indices,
 /// kept in the main world so the cloth can write into it.

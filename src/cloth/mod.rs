@@ -4,6 +4,7 @@
 pub mod batch;
 pub mod constraints;
 pub mod damping;
+pub mod debug_colors;
 pub mod garment;
 pub mod isometric_bending;
 pub mod mass_spring;

@@ -12,7 +12,8 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
 use super::constraints::Plane;
-use super::mesh::{compute_normals, mesh_triangles};
+use super::debug_colors::{DebugColorMode, debug_colors};
+use super::mesh::compute_normals;
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
@@ -20,7 +21,7 @@ use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{ColliderWorld, world_pose};
 use crate::collide::{FrameStep, FrameTracker, Pose, Teleport};
 use crate::error::ClothError;
-use crate::interact::colors::{DebugColorMode, debug_colors};
+use crate::mesh::mesh_triangles;
 use crate::schedule::DrapeSystems;
 
 /// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world

@@ -17,9 +17,9 @@ use bevy::transform::helper::TransformHelper;
 use super::motion::FrameTracker;
 use super::shapes::{Collider, ContactMaterial, Pose, Shape};
 use super::trimesh::TriMesh;
-use crate::cloth::mesh::mesh_triangles;
 use crate::cloth::plugin::DrapeSettings;
 use crate::error::ColliderError;
+use crate::mesh::mesh_triangles;
 use crate::schedule::DrapeSystems;
 
 /// The geometry of a [`ClothCollider`], in the entity's local frame (scaled by its

@@ -1,14 +1,13 @@
 //! Interaction: picking cloth particles with a ray ([`pick`]); dragging them is
 //! [`crate::cloth::ClothSim::grab`], [`crate::cloth::ClothSim::drag_to`] and
 //! [`crate::cloth::ClothSim::release`]; with the `render` feature, `drag::ClothDragPlugin`
-//! does it with the mouse; per-vertex debug colours ([`colors`]); with `render`, collider
+//! does it with the mouse (debug colours are `crate::cloth::debug_colors`); with `render`, collider
 //! gizmos (`gizmos::ColliderGizmoPlugin`); with `egui`, the settings panel
 //! (`panel::DrapePanelPlugin`); with `render`, whether the renderer can start at all
 //! (`adapter::find_graphics_adapter`).
 
 #[cfg(feature = "render")]
 pub mod adapter;
-pub mod colors;
 #[cfg(feature = "render")]
 pub mod drag;
 #[cfg(feature = "render")]

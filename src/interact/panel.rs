@@ -12,8 +12,8 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
 
-use super::colors::DebugColorMode;
 use super::gizmos::ColliderGizmos;
+use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::plugin::{
     ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings, DrapeSettings,
 };
