@@ -88,14 +88,8 @@ impl PluginGroup for DrapePlugins {
             .add(DrapeSchedulePlugin {
                 schedule: self.schedule,
             })
-            .add(SkeletonPlugin {
-                schedule: self.schedule,
-            })
-            .add(ColliderPlugin {
-                schedule: self.schedule,
-            })
-            .add(ClothPlugin {
-                schedule: self.schedule,
-            })
+            .add(SkeletonPlugin)
+            .add(ColliderPlugin)
+            .add(ClothPlugin)
     }
 }

@@ -81,9 +81,20 @@ impl DrapeTimings {
     }
 }
 
-/// The schedule `bevy_drape` simulates in, as a resource.
+/// The schedule `bevy_drape` simulates in, as a resource: the one label every drape plugin
+/// adds its fixed-step systems to (set by [`DrapeSchedulePlugin`], [`FixedPostUpdate`] if it
+/// is absent).
 #[derive(bevy::prelude::Resource, Debug, Clone, Copy)]
 pub struct DrapeSchedule(pub Interned<dyn ScheduleLabel>);
+
+impl DrapeSchedule {
+    /// The drape schedule of `app`.
+    pub fn of(app: &App) -> Interned<dyn ScheduleLabel> {
+        app.world()
+            .get_resource::<DrapeSchedule>()
+            .map_or_else(|| FixedPostUpdate.intern(), |s| s.0)
+    }
+}
 
 /// Configures [`DrapeSystems`] in the simulation schedule and in [`PostUpdate`].
 pub struct DrapeSchedulePlugin {

@@ -3,8 +3,6 @@
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetServer, Assets, LoadState};
-use bevy::ecs::intern::Interned;
-use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::{error, warn};
 use bevy::math::{Vec3, Vec3A};
 use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
@@ -22,7 +20,7 @@ use crate::collide::plugin::{ColliderWorld, world_pose};
 use crate::collide::{FrameStep, FrameTracker, Pose, Teleport};
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
-use crate::schedule::DrapeSystems;
+use crate::schedule::{DrapeSchedule, DrapeSystems};
 
 /// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world
 /// space, through the entity's transform) in the first fixed step after the mesh is loaded;
@@ -303,28 +301,19 @@ impl ClothSimulation {
 pub struct ClothBuildError(pub ClothError);
 
 /// Steps every [`Cloth`] in the drape schedule and writes it into its mesh every frame.
-pub struct ClothPlugin {
-    /// The schedule the cloth steps in.
-    pub schedule: Interned<dyn ScheduleLabel>,
-}
-
-impl Default for ClothPlugin {
-    fn default() -> Self {
-        Self {
-            schedule: FixedPostUpdate.intern(),
-        }
-    }
-}
+#[derive(Default)]
+pub struct ClothPlugin;
 
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
+        let schedule = DrapeSchedule::of(app);
         app.register_type::<(Cloth, ClothSettings, DefaultClothSettings, ClothDebugColors)>()
             .init_resource::<DefaultClothSettings>()
             .init_resource::<DrapeSettings>()
             .init_resource::<ClothDebugColors>()
             .add_message::<ClothDiverged>()
-            .add_systems(self.schedule, build_cloths.in_set(DrapeSystems::Prepare))
-            .add_systems(self.schedule, step_cloths.in_set(DrapeSystems::Step))
+            .add_systems(schedule, build_cloths.in_set(DrapeSystems::Prepare))
+            .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
             .add_systems(
                 PostUpdate,
                 write_back_meshes.in_set(DrapeSystems::Writeback),

@@ -6,8 +6,6 @@ use std::sync::Arc;
 
 use bevy::app::{App, Plugin};
 use bevy::asset::{AssetId, Assets, Handle};
-use bevy::ecs::intern::Interned;
-use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::warn;
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy::mesh::Mesh;
@@ -20,7 +18,7 @@ use super::trimesh::TriMesh;
 use crate::cloth::plugin::DrapeSettings;
 use crate::error::ColliderError;
 use crate::mesh::mesh_triangles;
-use crate::schedule::DrapeSystems;
+use crate::schedule::{DrapeSchedule, DrapeSystems};
 
 /// The geometry of a [`ClothCollider`], in the entity's local frame (scaled by its
 /// transform's scale: spheres by the largest axis, capsules' radius by the largest of X and
@@ -185,17 +183,16 @@ pub(crate) fn world_pose(global: &GlobalTransform) -> Option<Pose> {
 
 /// Moves kinematic colliders and gathers every [`ClothCollider`] into the [`ColliderWorld`]
 /// in [`DrapeSystems::Colliders`].
-pub struct ColliderPlugin {
-    /// The schedule the simulation runs in.
-    pub schedule: Interned<dyn ScheduleLabel>,
-}
+#[derive(Default)]
+pub struct ColliderPlugin;
 
 impl Plugin for ColliderPlugin {
     fn build(&self, app: &mut App) {
+        let schedule = DrapeSchedule::of(app);
         app.register_type::<(ClothCollider, KinematicVelocity, AnimatedVelocity)>()
             .init_resource::<ColliderWorld>()
             .add_systems(
-                self.schedule,
+                schedule,
                 (move_kinematic_colliders, gather_colliders)
                     .chain()
                     .in_set(DrapeSystems::Colliders),

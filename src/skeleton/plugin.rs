@@ -7,8 +7,6 @@ use std::sync::Arc;
 use bevy::app::{App, Plugin, PostUpdate, PreUpdate};
 use bevy::asset::io::Reader;
 use bevy::asset::{Asset, AssetApp, AssetId, AssetLoader, Assets, Handle, LoadContext};
-use bevy::ecs::intern::Interned;
-use bevy::ecs::schedule::ScheduleLabel;
 use bevy::log::{error, warn};
 use bevy::math::{Quat, Vec3};
 use bevy::prelude::*;
@@ -23,7 +21,7 @@ use super::rig::{BoneState, Pose, PoseRate, Rig};
 use crate::cloth::plugin::DrapeSettings;
 use crate::collide::plugin::{AnimatedVelocity, ClothCollider, world_pose};
 use crate::collide::{ContactMaterial, FrameStep, FrameTracker};
-use crate::schedule::DrapeSystems;
+use crate::schedule::{DrapeSchedule, DrapeSystems};
 
 /// A clip file, as loaded; bound to a rig when a [`ClipPlayer`] plays it.
 #[derive(Asset, TypePath, Clone, Debug, PartialEq)]
@@ -199,25 +197,24 @@ pub struct SkeletonPose {
 /// Spawns bone entities (in `PreUpdate`), samples clips in [`DrapeSystems::Animate`], solves
 /// IK and poses the bones in [`DrapeSystems::InverseKinematics`], and interpolates bone
 /// transforms for rendering.
-pub struct SkeletonPlugin {
-    /// The schedule the simulation runs in.
-    pub schedule: Interned<dyn ScheduleLabel>,
-}
+#[derive(Default)]
+pub struct SkeletonPlugin;
 
 impl Plugin for SkeletonPlugin {
     fn build(&self, app: &mut App) {
+        let schedule = DrapeSchedule::of(app);
         app.register_type::<(BoneColliders, BoneProxyOf, ClipPlayer, InverseKinematics)>()
             .init_asset::<ClipAsset>()
             .init_asset_loader::<ClipLoader>()
             .add_systems(PreUpdate, spawn_bones)
             .add_systems(
-                self.schedule,
+                schedule,
                 (track_skeletons, play_clips)
                     .chain()
                     .in_set(DrapeSystems::Animate),
             )
             .add_systems(
-                self.schedule,
+                schedule,
                 (solve_ik, pose_bones)
                     .chain()
                     .in_set(DrapeSystems::InverseKinematics),
