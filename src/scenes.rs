@@ -9,7 +9,7 @@ use bevy::math::Vec3;
 use crate::cloth::{
     ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SelfCollision, SolverSettings,
 };
-use crate::collide::{Collider, ContactMaterial, Pose, Shape};
+use crate::collide::{Collider, ContactMaterial, RigidPose, Shape};
 
 /// Frame rate of the standard scenes, Hz.
 pub const FRAME_RATE: f32 = 60.0;
@@ -129,9 +129,9 @@ impl Drape {
             friction: Self::FRICTION,
             restitution: 0.0,
         };
-        let at = |translation: Vec3| Pose {
+        let at = |translation: Vec3| RigidPose {
             translation: translation.into(),
-            ..Pose::IDENTITY
+            ..RigidPose::IDENTITY
         };
         let mut sphere = Collider::fixed(
             Shape::Sphere {
@@ -139,7 +139,7 @@ impl Drape {
             },
             at(self.sphere_centre()),
         );
-        let mut ground = Collider::fixed(Shape::Plane, Pose::IDENTITY);
+        let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
         for c in [&mut sphere, &mut ground] {
             c.material = material;
             c.margin = Self::MARGIN;
@@ -231,7 +231,7 @@ impl SheetDrop {
 
     /// The ground.
     pub fn ground(&self) -> Collider {
-        let mut ground = Collider::fixed(Shape::Plane, Pose::IDENTITY);
+        let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
         ground.material = ContactMaterial {
             friction: Self::FRICTION,
             restitution: 0.0,

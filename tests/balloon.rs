@@ -9,7 +9,7 @@ use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_drape::cloth::{VolumeSettings, weld};
-use bevy_drape::collide::{Collider, Pose, Shape};
+use bevy_drape::collide::{Collider, RigidPose, Shape};
 use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
 
@@ -35,7 +35,7 @@ fn balloon_on(settings: &SolverSettings, mu: f32) -> ClothSim {
         .collect();
     let model = ClothModel::from_triangles(&lifted, &welded.indices, 0.1).unwrap();
     let mut sim = ClothSim::new(model);
-    let mut ground = Collider::fixed(Shape::Plane, Pose::IDENTITY);
+    let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
     ground.margin = 0.0;
     ground.material.friction = mu;
     sim.set_colliders(&[ground]);

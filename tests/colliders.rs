@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy_drape::cloth::{ClothModel, ClothSim, GridDesc, SolverMethod, SolverSettings};
-use bevy_drape::collide::{Collider, ContactMaterial, Pose, Shape, TriMesh};
+use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape, TriMesh};
 use bevy_drape::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
 
 const DT: f32 = 1.0 / FRAME_RATE;
@@ -27,7 +27,7 @@ fn settings(method: SolverMethod) -> SolverSettings {
 fn plane(rotation: Quat, material: ContactMaterial) -> Collider {
     let mut c = Collider::fixed(
         Shape::Plane,
-        Pose {
+        RigidPose {
             translation: Vec3A::ZERO,
             rotation,
         },
@@ -144,7 +144,7 @@ fn on_an_incline_a_particle_and_a_patch_stay_below_the_friction_angle_and_slide_
 fn a_spinning_sphere_carries_a_particle_resting_on_top_along_omega_cross_r() {
     let radius = 0.5;
     let omega = Vec3A::new(0.0, 0.0, -2.0);
-    let mut sphere = Collider::fixed(Shape::Sphere { radius }, Pose::IDENTITY);
+    let mut sphere = Collider::fixed(Shape::Sphere { radius }, RigidPose::IDENTITY);
     sphere.angular_velocity = omega;
     sphere.material.friction = 0.8;
     let top = Vec3A::new(0.0, radius, 0.0);
@@ -189,7 +189,7 @@ fn a_fast_collider_leaves_no_particle_inside_it() {
         let end = start + Vec3A::X * per_step;
         let mut sphere = Collider::fixed(
             Shape::Sphere { radius },
-            Pose {
+            RigidPose {
                 translation: start,
                 rotation: Quat::IDENTITY,
             },
@@ -257,7 +257,7 @@ fn a_triangle_mesh_collider_holds_a_particle_like_the_plane_it_tiles() {
     ];
     let mesh = Arc::new(TriMesh::new(&v, &[0, 1, 2, 0, 2, 3]).unwrap());
     let mut sim = particle(Vec3::new(0.1, 0.5, 0.2));
-    let mut floor = Collider::fixed(Shape::TriangleMesh(mesh), Pose::IDENTITY);
+    let mut floor = Collider::fixed(Shape::TriangleMesh(mesh), RigidPose::IDENTITY);
     floor.margin = 0.01;
     sim.set_colliders(&[floor]);
     for _ in 0..120 {

@@ -418,7 +418,7 @@ fn random_motions_and_any_schedule_of_the_mover_give_the_same_velocities() {
 /// A free sheet, no gravity, carried by a frame moving along `mover` with `inertia`; the
 /// sheet's particles in the frame's coordinates and in the world, after `steps` steps.
 fn carried_sheet(mover: &Mover, inertia: f32, steps: usize) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
-    use bevy_drape::collide::{FrameTracker, Pose};
+    use bevy_drape::collide::{FrameTracker, RigidPose};
     let grid = GridDesc::square(0.5, 6, Vec3::new(-0.25, 1.0, -0.25));
     let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
     let start: Vec<Vec3> = sim.state().positions.iter().map(|&p| p.into()).collect();
@@ -426,7 +426,7 @@ fn carried_sheet(mover: &Mover, inertia: f32, steps: usize) -> (Vec<Vec3>, Vec<V
     let dt = 1.0 / 60.0;
     let pose_at = |t: f32| {
         let t = mover.transform_at(t);
-        Pose {
+        RigidPose {
             translation: t.translation.into(),
             rotation: t.rotation,
         }
@@ -484,7 +484,7 @@ fn with_no_inertia_a_cloth_moves_rigidly_with_its_frame_and_with_full_inertia_no
 
 #[test]
 fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_frame_stops() {
-    use bevy_drape::collide::{FrameStep, Pose};
+    use bevy_drape::collide::{FrameStep, RigidPose};
     let dt = 1.0 / 60.0;
     let velocity = Vec3::new(1.5, 0.0, -0.5);
     for inertia in [0.0, 0.25, 0.5, 1.0] {
@@ -499,7 +499,7 @@ fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_fra
             } else {
                 (Vec3::ZERO, at)
             };
-            let pose = |p: Vec3| Pose {
+            let pose = |p: Vec3| RigidPose {
                 translation: p.into(),
                 rotation: Quat::IDENTITY,
             };

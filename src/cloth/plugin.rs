@@ -17,7 +17,7 @@ use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{ColliderWorld, world_pose};
-use crate::collide::{FrameStep, FrameTracker, Pose, Teleport};
+use crate::collide::{FrameStep, FrameTracker, RigidPose, Teleport};
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems};
@@ -236,7 +236,7 @@ pub struct ClothSimulation {
     /// Its motion over the last fixed step, for drawing in its frame.
     followed: Option<FrameStep>,
     /// Its pose when the cloth was built, for resets.
-    built_in_frame: Option<Pose>,
+    built_in_frame: Option<RigidPose>,
     warned_follow: bool,
 }
 

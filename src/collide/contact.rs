@@ -35,7 +35,7 @@
 
 use bevy::math::Vec3A;
 
-use super::shapes::{Collider, Pose};
+use super::shapes::{Collider, RigidPose};
 use super::trimesh::Aabb;
 
 /// No collider.
@@ -75,7 +75,7 @@ impl Contact {
 #[derive(Clone, Debug, Default)]
 pub struct ContactScratch {
     contacts: Vec<Contact>,
-    poses: Vec<Pose>,
+    poses: Vec<RigidPose>,
     bounds: Vec<Option<Aabb>>,
 }
 

@@ -11,5 +11,5 @@ pub mod trimesh;
 
 pub use contact::{Contact, ContactScratch};
 pub use motion::{FrameStep, FrameTracker, RigidMap, Teleport};
-pub use shapes::{Collider, ContactMaterial, Pose, Shape};
+pub use shapes::{Collider, ContactMaterial, RigidPose, Shape};
 pub use trimesh::{Aabb, TriMesh};

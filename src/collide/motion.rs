@@ -20,7 +20,7 @@
 use bevy::math::{Quat, Vec3A};
 use bevy::reflect::Reflect;
 
-use super::shapes::Pose;
+use super::shapes::RigidPose;
 
 /// When a frame's pose change over one fixed step counts as a jump (a teleport, a respawn)
 /// rather than motion.
@@ -45,7 +45,7 @@ impl Default for Teleport {
 
 impl Teleport {
     /// Whether going from `start` to `end` in one step is a jump.
-    pub fn is_jump(&self, start: &Pose, end: &Pose) -> bool {
+    pub fn is_jump(&self, start: &RigidPose, end: &RigidPose) -> bool {
         let turn = (end.rotation * start.rotation.inverse()).normalize();
         let angle = 2.0 * turn.w.abs().min(1.0).acos();
         start.translation.distance(end.translation) > self.distance || angle > self.angle
@@ -57,9 +57,9 @@ impl Teleport {
 pub struct FrameStep {
     /// The pose at the start of the step (the end of the last one; equal to `end` on the
     /// first step).
-    pub start: Pose,
+    pub start: RigidPose,
     /// The pose at the end of the step.
-    pub end: Pose,
+    pub end: RigidPose,
     /// Velocity of the frame's origin at the end of the step, m/s (world frame).
     pub linear_velocity: Vec3A,
     /// Angular velocity at the end of the step, rad/s (world frame, axis times rate).
@@ -70,7 +70,7 @@ pub struct FrameStep {
 
 impl FrameStep {
     /// A frame at rest at `pose`.
-    pub fn at_rest(pose: Pose) -> Self {
+    pub fn at_rest(pose: RigidPose) -> Self {
         Self {
             start: pose,
             end: pose,
@@ -82,7 +82,7 @@ impl FrameStep {
 
     /// Where something moving with the frame starts its sweep through the step: `start`, or
     /// `end` after a jump.
-    pub fn sweep_start(&self) -> Pose {
+    pub fn sweep_start(&self) -> RigidPose {
         if self.jumped { self.end } else { self.start }
     }
 
@@ -134,8 +134,8 @@ impl RigidMap {
     }
 
     /// A pose moved by the map.
-    pub fn pose(&self, pose: &Pose) -> Pose {
-        Pose {
+    pub fn pose(&self, pose: &RigidPose) -> RigidPose {
+        RigidPose {
             translation: self.point(pose.translation),
             rotation: (self.rotation * pose.rotation).normalize(),
         }
@@ -154,7 +154,7 @@ impl FrameTracker {
     /// The frame is at `pose` at the end of a step of `dt` seconds: its motion over the step.
     /// With `teleport`, a pose change past its thresholds is a jump; a non-finite or
     /// non-positive `dt` is treated as no time passing (the frame is at rest).
-    pub fn step(&mut self, pose: Pose, dt: f32, teleport: Option<&Teleport>) -> FrameStep {
+    pub fn step(&mut self, pose: RigidPose, dt: f32, teleport: Option<&Teleport>) -> FrameStep {
         let (step, mean) = match self.last {
             None => (FrameStep::at_rest(pose), None),
             Some(_) if !(dt > 0.0 && dt.is_finite()) => (FrameStep::at_rest(pose), None),
@@ -208,8 +208,8 @@ impl FrameTracker {
 mod tests {
     use super::*;
 
-    fn pose(x: f32, yaw: f32) -> Pose {
-        Pose {
+    fn pose(x: f32, yaw: f32) -> RigidPose {
+        RigidPose {
             translation: Vec3A::new(x, 0.0, 0.0),
             rotation: Quat::from_rotation_y(yaw),
         }
@@ -247,7 +247,7 @@ mod tests {
 
     /// A smooth random motion: a circle with a wobble, turning about a tilted axis at a
     /// varying rate; its pose and exact velocities at `t`.
-    fn smooth_motion(seed: u32, t: f32) -> (Pose, Vec3A, Vec3A) {
+    fn smooth_motion(seed: u32, t: f32) -> (RigidPose, Vec3A, Vec3A) {
         let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
         let mut next = || {
             state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
@@ -274,7 +274,7 @@ mod tests {
         let angle = spin * t + 0.5 * accel * t * t;
         let rotation = Quat::from_axis_angle(axis.into(), angle);
         (
-            Pose {
+            RigidPose {
                 translation,
                 rotation,
             },
@@ -315,7 +315,7 @@ mod tests {
     fn the_whole_carry_maps_start_onto_end_and_none_is_the_identity() {
         let step = FrameStep {
             start: pose(1.0, 0.3),
-            end: Pose {
+            end: RigidPose {
                 translation: Vec3A::new(2.0, 0.5, -1.0),
                 rotation: Quat::from_rotation_y(1.1) * Quat::from_rotation_x(0.2),
             },

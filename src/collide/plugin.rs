@@ -13,7 +13,7 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
 use super::motion::FrameTracker;
-use super::shapes::{Collider, ContactMaterial, Pose, Shape};
+use super::shapes::{Collider, ContactMaterial, RigidPose, Shape};
 use super::trimesh::TriMesh;
 use crate::cloth::plugin::DrapeSettings;
 use crate::error::ColliderError;
@@ -173,9 +173,9 @@ pub struct ColliderWorld {
 
 /// The rigid pose (translation and rotation, scale left out) of a global transform, if it is
 /// finite.
-pub(crate) fn world_pose(global: &GlobalTransform) -> Option<Pose> {
+pub(crate) fn world_pose(global: &GlobalTransform) -> Option<RigidPose> {
     let (scale, rotation, translation) = global.to_scale_rotation_translation();
-    (scale.is_finite() && rotation.is_finite() && translation.is_finite()).then(|| Pose {
+    (scale.is_finite() && rotation.is_finite() && translation.is_finite()).then(|| RigidPose {
         translation: translation.into(),
         rotation: rotation.normalize(),
     })

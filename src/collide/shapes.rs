@@ -10,14 +10,14 @@ use crate::error::ColliderError;
 
 /// A rigid pose: rotation, then translation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pose {
+pub struct RigidPose {
     /// Position of the local origin, metres.
     pub translation: Vec3A,
     /// Orientation (unit quaternion).
     pub rotation: Quat,
 }
 
-impl Pose {
+impl RigidPose {
     /// The identity pose.
     pub const IDENTITY: Self = Self {
         translation: Vec3A::ZERO,
@@ -234,9 +234,9 @@ pub struct Collider {
     /// metres.
     pub margin: f32,
     /// The pose at the start of the step.
-    pub start: Pose,
+    pub start: RigidPose,
     /// The pose at the end of the step.
-    pub end: Pose,
+    pub end: RigidPose,
     /// Linear velocity of the local origin, m/s (world frame).
     pub linear_velocity: Vec3A,
     /// Angular velocity, rad/s (world frame).
@@ -245,7 +245,7 @@ pub struct Collider {
 
 impl Collider {
     /// A collider at rest at `pose`.
-    pub fn fixed(shape: Shape, pose: Pose) -> Self {
+    pub fn fixed(shape: Shape, pose: RigidPose) -> Self {
         Self {
             shape,
             material: ContactMaterial::default(),
@@ -259,7 +259,7 @@ impl Collider {
 
     /// The pose a fraction `t` in [0, 1] through the step.
     #[inline]
-    pub fn pose_at(&self, t: f32) -> Pose {
+    pub fn pose_at(&self, t: f32) -> RigidPose {
         if t >= 1.0 {
             self.end
         } else {
@@ -270,7 +270,7 @@ impl Collider {
     /// The velocity of the collider's material point at world position `point` when the
     /// collider is at `pose`: `v + omega x (point - origin)`.
     #[inline]
-    pub fn velocity_at(&self, pose: &Pose, point: Vec3A) -> Vec3A {
+    pub fn velocity_at(&self, pose: &RigidPose, point: Vec3A) -> Vec3A {
         self.linear_velocity + self.angular_velocity.cross(point - pose.translation)
     }
 

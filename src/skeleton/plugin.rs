@@ -302,7 +302,7 @@ fn spawn_bones(
                 },
                 pose,
                 bones,
-                frame: FrameStep::at_rest(crate::collide::Pose::IDENTITY),
+                frame: FrameStep::at_rest(crate::collide::RigidPose::IDENTITY),
                 tracker: FrameTracker::default(),
                 global: None,
                 warned_transform: false,
