@@ -3,6 +3,7 @@
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetServer, Assets, LoadState};
+use bevy::ecs::query::QueryData;
 use bevy::log::{error, warn};
 use bevy::math::{Vec3, Vec3A};
 use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
@@ -387,29 +388,26 @@ fn build_simulation(
     ))
 }
 
-/// Cloths not built yet.
-type NewCloths<'w, 's> = Query<
-    'w,
-    's,
-    (
-        Entity,
-        &'static Cloth,
-        &'static Mesh3d,
-        Option<&'static ClothSettings>,
-    ),
-    (Without<ClothSimulation>, Without<ClothBuildError>),
->;
+/// A cloth not built yet (with the filter `Without<ClothSimulation>, Without<ClothBuildError>`).
+#[derive(QueryData)]
+struct NewCloth {
+    entity: Entity,
+    cloth: &'static Cloth,
+    mesh: &'static Mesh3d,
+    settings: Option<&'static ClothSettings>,
+}
 
 /// Builds the simulation of every new cloth whose mesh is loaded.
 fn build_cloths(
     mut commands: Commands,
-    new_cloths: NewCloths,
+    new_cloths: Query<NewCloth, (Without<ClothSimulation>, Without<ClothBuildError>)>,
     mut meshes: ResMut<Assets<Mesh>>,
     defaults: Res<DefaultClothSettings>,
     transforms: TransformHelper,
     asset_server: Option<Res<AssetServer>>,
 ) {
-    for (entity, cloth, mesh3d, settings) in &new_cloths {
+    for item in &new_cloths {
+        let (entity, cloth, mesh3d, settings) = (item.entity, item.cloth, item.mesh, item.settings);
         let Some(mesh) = meshes.get(&mesh3d.0) else {
             // A file that will never load: say which, once.
             if let Some(server) = &asset_server

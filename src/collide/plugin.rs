@@ -2,6 +2,7 @@
 //! velocities, and the thin systems that hand every collider's pose and velocity at the
 //! current fixed step to the cloths.
 
+use bevy::ecs::query::QueryData;
 use std::sync::Arc;
 
 use bevy::app::{App, Plugin};
@@ -256,21 +257,20 @@ fn scaled_shape(
     }))
 }
 
-type Colliders<'w, 's> = Query<
-    'w,
-    's,
-    (
-        Entity,
-        &'static ClothCollider,
-        &'static mut ColliderState,
-        Option<&'static KinematicVelocity>,
-        Option<&'static AnimatedVelocity>,
-        Option<&'static ChildOf>,
-    ),
->;
+/// A collider, with what its velocity may come from.
+#[derive(QueryData)]
+#[query_data(mutable)]
+struct ColliderItem {
+    entity: Entity,
+    collider: &'static ClothCollider,
+    state: &'static mut ColliderState,
+    kinematic: Option<&'static KinematicVelocity>,
+    animated: Option<&'static AnimatedVelocity>,
+    child_of: Option<&'static ChildOf>,
+}
 
 fn gather_colliders(
-    mut colliders: Colliders,
+    mut colliders: Query<ColliderItem>,
     animated_parents: Query<&AnimatedVelocity, Without<ClothCollider>>,
     mut world: ResMut<ColliderWorld>,
     meshes: Res<Assets<Mesh>>,
@@ -282,7 +282,15 @@ fn gather_colliders(
     let teleport = drape.map_or(Some(Default::default()), |d| d.teleport);
     world.colliders.clear();
     world.entities.clear();
-    for (entity, collider, mut state, kinematic, animated, child_of) in &mut colliders {
+    for item in &mut colliders {
+        let (entity, collider, mut state, kinematic, animated, child_of) = (
+            item.entity,
+            item.collider,
+            item.state,
+            item.kinematic,
+            item.animated,
+            item.child_of,
+        );
         let state = &mut *state;
         let result = (|| -> Result<Option<Collider>, ColliderError> {
             let global = transforms

@@ -2,6 +2,7 @@
 //! [`ClipPlayer`] components, bone entities, and the thin systems that sample clips in the
 //! fixed schedule, write bone transforms and publish bone velocities for colliders.
 
+use bevy::ecs::query::QueryData;
 use std::sync::Arc;
 
 use bevy::app::{App, Plugin, PostUpdate, PreUpdate};
@@ -343,21 +344,22 @@ fn track_skeletons(
     }
 }
 
-type Players<'w, 's> = Query<
-    'w,
-    's,
-    (
-        Entity,
-        &'static Skeleton,
-        &'static mut ClipPlayer,
-        &'static mut SkeletonPose,
-    ),
->;
+/// A character playing a clip.
+#[derive(QueryData)]
+#[query_data(mutable)]
+struct Player {
+    entity: Entity,
+    skeleton: &'static Skeleton,
+    player: &'static mut ClipPlayer,
+    pose: &'static mut SkeletonPose,
+}
 
 /// Advances every clip player and samples its clip into the skeleton's pose and rate.
-fn play_clips(mut players: Players, clips: Res<Assets<ClipAsset>>, time: Res<Time>) {
+fn play_clips(mut players: Query<Player>, clips: Res<Assets<ClipAsset>>, time: Res<Time>) {
     let dt = time.delta_secs();
-    for (entity, skeleton, mut player, mut state) in &mut players {
+    for item in &mut players {
+        let (entity, skeleton, mut player, mut state) =
+            (item.entity, item.skeleton, item.player, item.pose);
         let state = &mut *state;
         let Some(asset) = clips.get(&player.clip) else {
             continue;
@@ -460,22 +462,23 @@ pub struct IkState {
     warm: Vec<Vec<f32>>,
 }
 
-type IkCharacters<'w, 's> = Query<
-    'w,
-    's,
-    (
-        Entity,
-        &'static Skeleton,
-        &'static mut InverseKinematics,
-        &'static mut SkeletonPose,
-        &'static mut IkState,
-    ),
->;
+/// A character with IK goals.
+#[derive(QueryData)]
+#[query_data(mutable)]
+struct IkCharacter {
+    entity: Entity,
+    skeleton: &'static Skeleton,
+    ik: &'static mut InverseKinematics,
+    pose: &'static mut SkeletonPose,
+    state: &'static mut IkState,
+}
 
 /// Solves every character's IK goals on top of its keyframed pose.
-fn solve_ik(mut characters: IkCharacters, transforms: TransformHelper, time: Res<Time>) {
+fn solve_ik(mut characters: Query<IkCharacter>, transforms: TransformHelper, time: Res<Time>) {
     let dt = time.delta_secs();
-    for (entity, skeleton, mut ik, mut state, mut ik_state) in &mut characters {
+    for item in &mut characters {
+        let (entity, skeleton, mut ik, mut state, mut ik_state) =
+            (item.entity, item.skeleton, item.ik, item.pose, item.state);
         let state = &mut *state;
         let Some(character) = state.global else {
             continue;
