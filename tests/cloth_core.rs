@@ -424,7 +424,10 @@ fn pins_set_or_released_between_steps_hold_or_let_go() {
 #[test]
 fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
     let mut sim = free_grid(10);
-    sim.set_planes(&[bevy_drape::cloth::Plane::ground(0.0)]);
+    sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+        0.0,
+        Default::default(),
+    )]);
     let settings = SolverSettings::default();
     for _ in 0..180 {
         sim.step(&settings, GRAVITY, DT);
@@ -440,7 +443,10 @@ fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
 fn the_step_is_deterministic() {
     let run = || {
         let mut sim = HangingCloth { n: 16 }.build();
-        sim.set_planes(&[bevy_drape::cloth::Plane::ground(0.2)]);
+        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+            0.2,
+            Default::default(),
+        )]);
         let settings = SolverSettings::default();
         for _ in 0..60 {
             sim.step(&settings, GRAVITY, DT);

@@ -3,7 +3,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, DivergenceBounds, GridDesc, Plane, SolverMethod, SolverSettings,
+    ClothModel, ClothSim, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::interact::pick::pick_particle;
 use bevy_drape::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
@@ -22,7 +22,10 @@ fn a_dragged_particle_reaches_its_goal_and_the_cloth_stays_bounded_when_yanked()
     ] {
         let grid = GridDesc::square(1.0, 16, Vec3::new(0.0, 0.01, 0.0));
         let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
-        sim.set_planes(&[Plane::ground(0.0)]);
+        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+            0.0,
+            Default::default(),
+        )]);
         let settings = SolverSettings {
             method,
             auto_substeps: true,

@@ -290,7 +290,10 @@ fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
     for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
         let grid = bevy_drape::cloth::GridDesc::square(0.5, 10, Vec3::new(0.0, 0.3, 0.0));
         let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
-        sim.set_planes(&[bevy_drape::cloth::Plane::ground(0.0)]);
+        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+            0.0,
+            Default::default(),
+        )]);
         let settings = SolverSettings {
             method,
             auto_substeps: true,

@@ -4,7 +4,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use bevy_drape::cloth::{Plane, SolverSettings};
+use bevy_drape::cloth::SolverSettings;
 use bevy_drape::scenes::{GRAVITY, HangingCloth};
 
 struct Counting;
@@ -50,7 +50,10 @@ static GLOBAL: Counting = Counting;
 fn stepping_allocates_nothing() {
     let scene = HangingCloth { n: 12 };
     let mut sim = scene.build();
-    sim.set_planes(&[Plane::ground(0.5)]);
+    sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+        0.5,
+        Default::default(),
+    )]);
     let settings = SolverSettings::default();
     sim.step(&settings, GRAVITY, 1.0 / 60.0);
     COUNTING.with(|c| c.set(true));

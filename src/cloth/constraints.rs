@@ -252,60 +252,6 @@ pub fn project_bending(
     x[i3] += g[3] * (ws[3] * dl);
 }
 
-/// A half-space `normal . x >= offset` that particles stay inside (the ground, a wall of a
-/// container).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Plane {
-    /// Unit normal, pointing into the allowed side.
-    pub normal: Vec3A,
-    /// `normal . x` on the plane, metres.
-    pub offset: f32,
-}
-
-impl Plane {
-    /// The plane through `point` with unit normal `normal` (normalised here).
-    pub fn new(normal: Vec3A, point: Vec3A) -> Self {
-        let normal = normal.normalize_or(Vec3A::Y);
-        Self {
-            normal,
-            offset: normal.dot(point),
-        }
-    }
-
-    /// The ground: `y >= height`.
-    pub fn ground(height: f32) -> Self {
-        Self {
-            normal: Vec3A::Y,
-            offset: height,
-        }
-    }
-
-    /// The six inward-facing walls of the axis-aligned box from `min` to `max`.
-    pub fn box_walls(min: Vec3A, max: Vec3A) -> [Self; 6] {
-        [
-            Self::new(Vec3A::X, min),
-            Self::new(-Vec3A::X, max),
-            Self::new(Vec3A::Y, min),
-            Self::new(-Vec3A::Y, max),
-            Self::new(Vec3A::Z, min),
-            Self::new(-Vec3A::Z, max),
-        ]
-    }
-}
-
-/// Projects the inequality `normal . x - offset >= thickness` for one particle; returns how
-/// far the particle was pushed along the normal (0 if it was not in contact).
-#[inline(always)]
-pub fn project_plane(x: &mut Vec3A, plane: &Plane, thickness: f32) -> f32 {
-    let depth = plane.offset + thickness - plane.normal.dot(*x);
-    if depth > 0.0 {
-        *x += plane.normal * depth;
-        depth
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,7 +20,7 @@ pub mod stretch_limits;
 pub mod volume;
 pub mod weld;
 
-pub use constraints::{Plane, Tether};
+pub use constraints::Tether;
 pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSet, SpringSettings};
 pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};

@@ -10,7 +10,6 @@ use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
-use super::constraints::Plane;
 use super::debug_colors::{DebugColorMode, debug_colors};
 use super::mesh::compute_normals;
 use super::model::ClothModel;
@@ -18,7 +17,7 @@ use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSim, Divergence};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{ColliderWorld, world_pose};
-use crate::collide::{FrameStep, FrameTracker, RigidPose, Teleport};
+use crate::collide::{Collider, ContactMaterial, FrameStep, FrameTracker, RigidPose, Teleport};
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems};
@@ -161,13 +160,17 @@ pub struct ClothDiverged {
 }
 
 impl ClothSettings {
-    fn planes(&self, out: &mut Vec<Plane>) {
-        out.clear();
+    /// The ground and the container's walls as colliders, with the solver's friction.
+    fn plane_colliders(&self, out: &mut Vec<Collider>) {
+        let material = ContactMaterial {
+            friction: self.solver.friction,
+            restitution: 0.0,
+        };
         if let Some(height) = self.ground {
-            out.push(Plane::ground(height));
+            out.push(Collider::ground(height, material));
         }
         if let Some((min, max)) = self.container {
-            out.extend(Plane::box_walls(min.into(), max.into()));
+            out.extend(Collider::box_walls(min.into(), max.into(), material));
         }
     }
 }
@@ -227,7 +230,8 @@ pub struct ClothSimulation {
     local_positions: Vec<[f32; 3]>,
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
-    planes: Vec<Plane>,
+    /// The colliders this cloth meets in a step (the world's and its own planes).
+    colliders: Vec<Collider>,
     warned_invalid_settings: bool,
     warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
@@ -375,7 +379,7 @@ fn build_simulation(
             vertex_colors: Vec::new(),
             local_positions: Vec::new(),
             base_colors: Vec::new(),
-            planes: Vec::new(),
+            colliders: Vec::new(),
             warned_invalid_settings: false,
             warned_volume: false,
             frozen_with: None,
@@ -504,9 +508,13 @@ fn step_cloths(
                 sim.model().density
             );
         }
-        settings.planes(&mut simulation.planes);
-        sim.set_planes(&simulation.planes);
-        sim.set_colliders(colliders.as_ref().map_or(&[], |c| &c.colliders));
+        // The world's colliders, then this cloth's ground and container.
+        simulation.colliders.clear();
+        simulation
+            .colliders
+            .extend_from_slice(colliders.as_ref().map_or(&[], |c| &c.colliders));
+        settings.plane_colliders(&mut simulation.colliders);
+        sim.set_colliders(&simulation.colliders);
 
         if let Ok(global) = transforms.compute_global_transform(entity) {
             for &v in &cloth.pinned_vertices {

@@ -257,6 +257,39 @@ impl Collider {
         }
     }
 
+    /// A fixed plane through `point` with unit normal `normal` (particles stay on its side):
+    /// the ground or a wall.
+    pub fn plane(point: Vec3A, normal: Vec3A, material: ContactMaterial) -> Self {
+        let normal = normal.normalize_or(Vec3A::Y);
+        Self {
+            material,
+            ..Self::fixed(
+                Shape::Plane,
+                RigidPose {
+                    translation: point,
+                    rotation: Quat::from_rotation_arc(Vec3A::Y.into(), normal.into()),
+                },
+            )
+        }
+    }
+
+    /// The ground: particles stay at `y >= height`.
+    pub fn ground(height: f32, material: ContactMaterial) -> Self {
+        Self::plane(Vec3A::new(0.0, height, 0.0), Vec3A::Y, material)
+    }
+
+    /// The six inward-facing walls of the axis-aligned box from `min` to `max`.
+    pub fn box_walls(min: Vec3A, max: Vec3A, material: ContactMaterial) -> [Self; 6] {
+        [
+            Self::plane(min, Vec3A::X, material),
+            Self::plane(max, -Vec3A::X, material),
+            Self::plane(min, Vec3A::Y, material),
+            Self::plane(max, -Vec3A::Y, material),
+            Self::plane(min, Vec3A::Z, material),
+            Self::plane(max, -Vec3A::Z, material),
+        ]
+    }
+
     /// The pose a fraction `t` in [0, 1] through the step.
     #[inline]
     pub fn pose_at(&self, t: f32) -> RigidPose {

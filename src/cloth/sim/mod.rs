@@ -5,7 +5,7 @@
 use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::batch::PairBatches;
-use super::constraints::{Plane, Tether};
+use super::constraints::Tether;
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::SpringSet;
 use super::model::{BendingPair, ClothModel, EdgeKind};
@@ -25,6 +25,9 @@ mod xpbd;
 
 pub use diagnostics::{Divergence, StrainStats};
 use passes::JacobiScratch;
+
+/// The most particles held by colliders that serve as anchors of contact tethers.
+const MAX_ANCHORS: usize = 128;
 
 /// How many nearest pinned particles each free particle is tethered to.
 const TETHERS_PER_PARTICLE: usize = 4;
@@ -64,7 +67,6 @@ pub struct ClothSim {
     stretch_limits: Vec<StretchLimit>,
     /// `stretch_limits` in batches of four.
     limit_batches: PairBatches,
-    planes: Vec<Plane>,
     /// Multipliers of the order-free (Jacobi) edge projection, one per edge.
     edge_lambdas: Vec<f32>,
     /// The model's edges in batches of four, in their sorted order.
@@ -83,7 +85,6 @@ pub struct ClothSim {
     free_masses: Vec<f32>,
     /// The bending pairs that are not flat at rest (dihedral even with isometric bending).
     curved_pairs: Vec<BendingPair>,
-    contact_push: Vec<f32>,
     springs: Option<SpringScratch>,
     last_substeps: u32,
     colliders: Vec<Collider>,
@@ -167,19 +168,19 @@ impl ClothSim {
             free_masses: Vec::new(),
             isometric_pairs,
             curved_pairs,
-            contact_push: vec![0.0; n],
             model,
             state,
             pins: Vec::new(),
             tethers: Vec::new(),
-            planes: Vec::new(),
             springs: None,
             last_substeps: 0,
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
             drag: None,
-            contact_tethers: Vec::new(),
-            anchors: Vec::new(),
+            // At most one tether per particle and `MAX_ANCHORS` anchors: made here, so that
+            // the first contacts do not allocate inside a step.
+            contact_tethers: Vec::with_capacity(n),
+            anchors: Vec::with_capacity(MAX_ANCHORS),
             volume: None,
             self_collision: None,
             self_contacts: 0,
@@ -428,12 +429,6 @@ impl ClothSim {
         }
     }
 
-    /// Replaces the planes (ground, container walls) particles stay on the allowed side of.
-    pub fn set_planes(&mut self, planes: &[Plane]) {
-        self.planes.clear();
-        self.planes.extend_from_slice(planes);
-    }
-
     /// Changes the areal density; masses and inverse masses follow.
     pub fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
         self.model.set_density(density)?;
@@ -530,12 +525,11 @@ impl ClothSim {
     ///    interpolated targets;
     /// 2. project, `iterations` times, in this order: stretch limits and tethers (the
     ///    long-range constraints), edges, bending pairs (first iteration only: bending is soft
-    ///    and its projection costs about ten distance projections), planes (multipliers reset
-    ///    first);
+    ///    and its projection costs about ten distance projections), volume, self-collision,
+    ///    colliders (planes included: see [`crate::collide::contact`]);
     /// 3. velocities: `v = (x - x_prev) / h + h/2 a`;
-    /// 4. contacts with planes: the approaching normal velocity is removed and the tangential
-    ///    one reduced by Coulomb friction (by at most `mu` times the normal velocity change the
-    ///    contact made, `push / h`); then damping.
+    /// 4. contacts: restitution and Coulomb friction relative to each collider's surface
+    ///    ([`crate::collide::contact`]); then damping.
     ///
     /// Steps 1 and 3 are symplectic Euler on the half-step velocity `(x - x_prev) / h`, started
     /// consistently (velocity Verlet), so a free particle follows `x0 + v0 t + a t^2 / 2`
@@ -647,7 +641,6 @@ impl ClothSim {
     /// Measured with `cargo run --release --example scenes`: S2 at N = 64, 8 x 2, max strain
     /// 20.9% without, 14.4% with; the poncho scene (S3) 55% without, 41% with.
     fn build_contact_tethers(&mut self, settings: &SolverSettings) {
-        const MAX_ANCHORS: usize = 128;
         self.contact_tethers.clear();
         if !settings.long_range_attachments || self.colliders.is_empty() {
             return;

@@ -3,7 +3,7 @@
 
 use bevy::math::Vec3A;
 
-use crate::cloth::constraints::{Plane, Projection, project_distance, project_plane};
+use crate::cloth::constraints::{Projection, project_distance};
 use crate::cloth::damping::{damp_plain, damp_rigid_masses};
 use crate::cloth::model::Edge;
 use crate::cloth::settings::{DampingMode, SolverSettings};
@@ -124,54 +124,6 @@ pub(super) fn project_edges_jacobi(
     }
     for ((xi, d), &share) in x.iter_mut().zip(&scratch.delta).zip(&scratch.share) {
         *xi += *d * share;
-    }
-}
-
-/// Projects every free particle out of every plane, adding how far it was pushed to `push`.
-#[inline(always)]
-pub(super) fn project_planes(
-    planes: &[Plane],
-    x: &mut [Vec3A],
-    w: &[f32],
-    thickness: f32,
-    push: &mut [f32],
-) {
-    for plane in planes {
-        for i in 0..x.len() {
-            if w[i] > 0.0 {
-                push[i] += project_plane(&mut x[i], plane, thickness);
-            }
-        }
-    }
-}
-
-/// Contact velocities for the particles pushed by a plane this substep (`push > 0`, the
-/// distance pushed): the approaching normal velocity is removed and the tangential velocity
-/// reduced by Coulomb friction, by at most `mu` times the normal velocity change `push / h`.
-pub(super) fn contact_velocities(
-    planes: &[Plane],
-    x: &[Vec3A],
-    v: &mut [Vec3A],
-    push: &[f32],
-    settings: &SolverSettings,
-    inv_h: f32,
-) {
-    for plane in planes {
-        for i in 0..x.len() {
-            if push[i] > 0.0 && plane.normal.dot(x[i]) <= plane.offset + settings.thickness * 1.001
-            {
-                let vn = plane.normal * plane.normal.dot(v[i]).max(0.0);
-                let vt = v[i] - vn;
-                let speed = vt.length();
-                let max_change = settings.friction * push[i] * inv_h;
-                v[i] = vn
-                    + if speed <= max_change {
-                        Vec3A::ZERO
-                    } else {
-                        vt * (1.0 - max_change / speed)
-                    };
-            }
-        }
     }
 }
 

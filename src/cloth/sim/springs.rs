@@ -4,10 +4,8 @@
 use bevy::math::{Vec3, Vec3A};
 
 use super::ClothSim;
-use super::passes::{
-    contact_velocities, damp, project_edges, project_edges_jacobi, project_planes,
-};
-use crate::cloth::constraints::{Projection, project_mutual_tether, project_plane};
+use super::passes::{damp, project_edges, project_edges_jacobi};
+use crate::cloth::constraints::{Projection, project_mutual_tether};
 use crate::cloth::mass_spring::auto_substeps;
 use crate::cloth::settings::SolverSettings;
 use crate::cloth::state::ClothState;
@@ -17,10 +15,8 @@ impl ClothSim {
     /// spring forces `f` at the substep's start,
     /// 1. symplectic Euler: `v += h (a + f / m)`, then `x += h v` (free particles); pins move
     ///    to their interpolated targets with the velocity of their straight path;
-    /// 2. contacts, found at the end of the substep: a particle behind a plane is put back on
-    ///    it (plus the thickness), its approaching normal velocity removed and its tangential
-    ///    velocity reduced by Coulomb friction (by at most `mu` times the normal velocity
-    ///    removed);
+    /// 2. contacts with the colliders (planes included), found at the end of the substep
+    ///    ([`crate::collide::contact`]);
     /// 3. damping ([`SolverSettings::damping`], on top of the springs' own).
     pub(super) fn step_mass_spring(
         &mut self,
@@ -36,7 +32,7 @@ impl ClothSim {
     /// 1. predict: `x_prev = x`, `v += h (a + f / m)`, `x += h v` (free particles); pins move
     ///    to their interpolated targets;
     /// 2. project, `iterations` times: the long-range attachments (if on), the structural
-    ///    edges as XPBD distance constraints with `stretch_compliance`, the planes;
+    ///    edges as XPBD distance constraints with `stretch_compliance`, the colliders;
     /// 3. `v = (x - x_prev) / h`; contacts and damping as in XPBD.
     pub(super) fn step_hybrid(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
         self.step_springs(settings, acceleration, dt, true);
@@ -107,7 +103,6 @@ impl ClothSim {
                 v[p] = (pin.end - pin.start) * pin_velocity;
             }
 
-            self.contact_push.fill(0.0);
             if !colliders.is_empty() {
                 self.contacts.begin_substep(colliders, t_end);
             }
@@ -144,13 +139,6 @@ impl ClothSim {
                     if let Some((v, constraint)) = volume.as_mut() {
                         constraint.project(x, w, v.pressure, v.compliance / (h * h));
                     }
-                    project_planes(
-                        &self.planes,
-                        x,
-                        w,
-                        settings.thickness,
-                        &mut self.contact_push,
-                    );
                     if let Some(sc) = self_collision {
                         self_contacts =
                             self_contacts.max(sc.project(x, x_prev, w, settings.friction, None));
@@ -163,19 +151,7 @@ impl ClothSim {
                 for i in 0..x.len() {
                     v[i] = (x[i] - x_prev[i]) * inv_h;
                 }
-                contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
             } else {
-                // Discrete contacts: the velocity removed is the approaching normal velocity.
-                for plane in &self.planes {
-                    for i in 0..x.len() {
-                        if w[i] > 0.0 && project_plane(&mut x[i], plane, settings.thickness) > 0.0 {
-                            let approach = (-plane.normal.dot(v[i])).max(0.0);
-                            self.contact_push[i] = approach * h;
-                            v[i] += plane.normal * approach;
-                        }
-                    }
-                }
-                contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
                 if let Some(sc) = self_collision {
                     // Discrete: the correction also changes the velocity.
                     self_contacts = self_contacts.max(sc.project(

@@ -4,7 +4,7 @@
 use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::ClothSim;
-use super::passes::{contact_velocities, damp, project_edges_jacobi, project_planes};
+use super::passes::{damp, project_edges_jacobi};
 use crate::cloth::constraints::{Projection, project_bending, project_mutual_tether};
 use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
@@ -98,7 +98,6 @@ impl ClothSim {
             } else if matches!(batch_stretch, Projection::Xpbd { .. }) {
                 self.edge_batch_lambdas.fill(Vec4::ZERO);
             }
-            self.contact_push.fill(0.0);
             for iteration in 0..iterations {
                 if settings.long_range_attachments {
                     self.limit_batches.project_limits(x);
@@ -146,13 +145,6 @@ impl ClothSim {
                         project_bending(x, w, pair.particles, pair.rest_angle, bend, &mut lambda);
                     }
                 }
-                project_planes(
-                    &self.planes,
-                    x,
-                    w,
-                    settings.thickness,
-                    &mut self.contact_push,
-                );
                 // Self-collision before the colliders, so that pushing layers apart never
                 // leaves a particle inside a collider.
                 if let Some(sc) = self
@@ -186,9 +178,8 @@ impl ClothSim {
                 }
             }
 
-            // 4. Contacts: planes (no bounce, Coulomb friction), colliders (restitution and
-            //    friction relative to the surface, see `crate::collide::contact`), then damping.
-            contact_velocities(&self.planes, x, v, &self.contact_push, settings, inv_h);
+            // 4. Contacts: restitution and friction relative to each collider's surface (see
+            //    `crate::collide::contact`), then damping.
             if !colliders.is_empty() {
                 self.contacts
                     .respond(colliders, x, x_prev, v, inv_h, h, bounce_threshold);
