@@ -365,10 +365,181 @@ pub fn solve(
     }
 }
 
+/// Keeps a chain's IK continuous while it tracks a moving target, step after step: each solve
+/// starts from the last step's angles, without restarts (a target out of reach holds the limb
+/// at its closest pose rather than sending it to another solution), and the angles move
+/// towards each new solution at most a given angle per step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IkTracking {
+    /// The chain's angles at the last step (chain order), empty before the first.
+    last: Vec<f32>,
+}
+
+impl IkTracking {
+    /// Puts the last step's angles of `chain` into `pose` (if there was a last step) and
+    /// returns the settings to solve with: `settings`, without restarts once warm.
+    pub fn warm_start(
+        &self,
+        chain: &IkChain,
+        pose: &mut Pose,
+        settings: &IkSettings,
+    ) -> IkSettings {
+        let warm = self.last.len() == chain.bones.len();
+        if warm {
+            for (&b, &angle) in chain.bones.iter().zip(&self.last) {
+                pose.angles[b] = angle;
+            }
+        }
+        IkSettings {
+            restarts: settings.restarts && !warm,
+            ..*settings
+        }
+    }
+
+    /// Moves `chain`'s angles in `pose` (a solution) to within `max_step` radians of the last
+    /// step's, and keeps them for the next step.
+    pub fn follow(&mut self, chain: &IkChain, pose: &mut Pose, max_step: f32) {
+        if self.last.len() == chain.bones.len() && max_step.is_finite() {
+            let max_step = max_step.max(0.0);
+            for (&b, from) in chain.bones.iter().zip(&self.last) {
+                let to = &mut pose.angles[b];
+                *to = from + (*to - from).clamp(-max_step, max_step);
+            }
+        }
+        self.last.clear();
+        self.last
+            .extend(chain.bones.iter().map(|&b| pose.angles[b]));
+    }
+
+    /// Forgets the last step (the chain changed).
+    pub fn forget(&mut self) {
+        self.last.clear();
+    }
+}
+
+/// The rates of a pose's angles from their last values, with no lag: the derivative at the
+/// newest of the parabola through the last three (second order), or the last difference while
+/// there are only two.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AngleRates {
+    /// The angles of the last two steps, the last first.
+    history: [Vec<f32>; 2],
+    /// How many of `history` are filled in.
+    filled: usize,
+}
+
+impl AngleRates {
+    /// The rate of angle `b` if it is `angle` now, `dt` seconds after the last step; `None`
+    /// with no history.
+    pub fn rate(&self, b: usize, angle: f32, dt: f32) -> Option<f32> {
+        let [last, before] = &self.history;
+        let no_time = dt.is_nan() || dt <= 0.0;
+        if no_time || self.filled == 0 || b >= last.len() {
+            return None;
+        }
+        Some(if self.filled >= 2 && b < before.len() {
+            (3.0 * angle - 4.0 * last[b] + before[b]) / (2.0 * dt)
+        } else {
+            (angle - last[b]) / dt
+        })
+    }
+
+    /// Remembers this step's angles.
+    pub fn push(&mut self, angles: &[f32]) {
+        self.history.swap(0, 1);
+        self.history[0].clear();
+        self.history[0].extend_from_slice(angles);
+        self.filled = (self.filled + 1).min(2);
+    }
+}
+
 /// The effector's world position for `pose`.
 pub fn effector_position(rig: &Rig, chain: &IkChain, pose: &Pose) -> Vec3 {
     let (mut joints, mut rotations, mut path) = (Vec::new(), Vec::new(), Vec::new());
     let frame = base(rig, chain, pose, &mut path);
     chain_fk(rig, chain, pose, frame, &mut joints, &mut rotations);
     joints[chain.bones.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skeleton::rig::BoneDesc;
+
+    #[test]
+    fn angle_rates_are_exact_for_a_parabola_and_second_order_otherwise() {
+        let dt = 1.0 / 60.0;
+        // theta(t) = 0.3 + 2 t - 5 t^2: the rate at the newest sample is exact.
+        let theta = |t: f32| 0.3 + 2.0 * t - 5.0 * t * t;
+        let mut rates = AngleRates::default();
+        assert_eq!(rates.rate(0, 0.0, dt), None);
+        for n in 0..3 {
+            let t = n as f32 * dt;
+            if n == 2 {
+                let rate = rates.rate(0, theta(t), dt).unwrap();
+                assert!((rate - (2.0 - 10.0 * t)).abs() < 1e-3, "{rate}");
+            }
+            rates.push(&[theta(t)]);
+        }
+        // sin(w t): the error falls with the square of the step.
+        let error = |dt: f32| {
+            let mut rates = AngleRates::default();
+            let mut worst = 0.0f32;
+            for n in 0..40 {
+                let t = n as f32 * dt;
+                if let Some(rate) = rates.rate(0, (3.0 * t).sin(), dt).filter(|_| n >= 2) {
+                    worst = worst.max((rate - 3.0 * (3.0 * t).cos()).abs());
+                }
+                rates.push(&[(3.0 * t).sin()]);
+            }
+            worst
+        };
+        let (coarse, fine) = (error(0.05), error(0.025));
+        assert!(fine < 0.3 * coarse, "{coarse} then {fine}");
+    }
+
+    #[test]
+    fn tracking_starts_from_the_last_step_without_restarts_and_limits_each_step() {
+        let rig = Rig::new(&[
+            BoneDesc {
+                name: "root".into(),
+                parent: None,
+                offset: [0.0; 3],
+                axis: [1.0, 0.0, 0.0],
+                limits: None,
+            },
+            BoneDesc {
+                name: "arm".into(),
+                parent: Some("root".into()),
+                offset: [0.0; 3],
+                axis: [0.0, 0.0, 1.0],
+                limits: None,
+            },
+        ])
+        .unwrap();
+        let chain = IkChain::new(&rig, "arm", 1, Vec3::X).unwrap();
+        let arm = chain.bones[0];
+        let mut tracking = IkTracking::default();
+        let mut pose = rig.rest_pose();
+        // Cold: the settings as given, the pose untouched.
+        let cold = tracking.warm_start(&chain, &mut pose, &IkSettings::default());
+        assert!(cold.restarts);
+        pose.angles[arm] = 1.0;
+        tracking.follow(&chain, &mut pose, 0.1);
+        assert_eq!(pose.angles[arm], 1.0, "the first step is not limited");
+        // Warm: from the last angles, no restarts, at most 0.1 rad further.
+        let mut next = rig.rest_pose();
+        let warm = tracking.warm_start(&chain, &mut next, &IkSettings::default());
+        assert!(!warm.restarts);
+        assert_eq!(next.angles[arm], 1.0);
+        next.angles[arm] = -2.0;
+        tracking.follow(&chain, &mut next, 0.1);
+        assert!((next.angles[arm] - 0.9).abs() < 1e-6);
+        tracking.forget();
+        assert!(
+            tracking
+                .warm_start(&chain, &mut next, &IkSettings::default())
+                .restarts
+        );
+    }
 }

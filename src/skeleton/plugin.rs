@@ -17,7 +17,7 @@ use bevy::transform::helper::TransformHelper;
 
 use super::clip::{Clip, ClipDesc, ClipError};
 use super::humanoid::{BoneProxy, humanoid_proxies};
-use super::ik::{IkChain, IkError, IkResult, IkScratch, IkSettings, solve};
+use super::ik::{AngleRates, IkChain, IkError, IkResult, IkScratch, IkSettings, IkTracking, solve};
 use super::rig::{BoneState, Pose, PoseRate, Rig};
 use crate::cloth::plugin::DrapeSettings;
 use crate::collide::plugin::{AnimatedVelocity, ClothCollider, world_pose};
@@ -454,12 +454,10 @@ pub struct IkState {
     chains: Vec<Option<(ChainKey, Result<IkChain, IkError>)>>,
     scratch: IkScratch,
     solved: Pose,
-    /// The final angles of the last two steps (the last first), for the hinge rates.
-    history: [Vec<f32>; 2],
-    /// How many of `history` are filled in.
-    history_len: usize,
-    /// Each goal's last solution (the chain's angles), where the next solve starts.
-    warm: Vec<Vec<f32>>,
+    /// The final angles of the last steps, for the hinge rates.
+    rates: AngleRates,
+    /// Each goal's last solution, where the next solve starts.
+    tracking: Vec<IkTracking>,
 }
 
 /// A character with IK goals.
@@ -502,8 +500,8 @@ fn solve_ik(mut characters: Query<IkCharacter>, transforms: TransformHelper, tim
                     warn!("character {entity}: IK goal {g} is ignored: {err}");
                 }
                 ik_state.chains[g] = Some((key, chain));
-                if let Some(warm) = ik_state.warm.get_mut(g) {
-                    warm.clear();
+                if let Some(tracking) = ik_state.tracking.get_mut(g) {
+                    tracking.forget();
                 }
             }
             let Some((_, Ok(chain))) = &ik_state.chains[g] else {
@@ -524,20 +522,11 @@ fn solve_ik(mut characters: Query<IkCharacter>, transforms: TransformHelper, tim
             // solution, so the arm does not flip to another one between steps), or from the
             // keyframes the first time.
             ik_state.solved.clone_from(&state.pose);
-            ik_state.warm.resize(ik.goals.len(), Vec::new());
-            let warm = &ik_state.warm[g];
-            let warm_started = warm.len() == chain.bones.len();
-            if warm_started {
-                for (&b, &angle) in chain.bones.iter().zip(warm) {
-                    ik_state.solved.angles[b] = angle;
-                }
-            }
-            // From the last solution, no restarts: a target out of reach holds the limb at
-            // its closest pose instead of sending it to another solution.
-            let settings = IkSettings {
-                restarts: goal.settings.restarts && !warm_started,
-                ..goal.settings
-            };
+            ik_state
+                .tracking
+                .resize(ik.goals.len(), IkTracking::default());
+            let settings =
+                ik_state.tracking[g].warm_start(chain, &mut ik_state.solved, &goal.settings);
             let result = solve(
                 rig,
                 chain,
@@ -547,16 +536,7 @@ fn solve_ik(mut characters: Query<IkCharacter>, transforms: TransformHelper, tim
                 &mut ik_state.scratch,
             );
             // Towards the solution at most `max_speed`; the next solve starts from here.
-            let warm = &mut ik_state.warm[g];
-            let step = goal.max_speed.max(0.0) * dt;
-            if warm.len() == chain.bones.len() && step.is_finite() {
-                for (&b, from) in chain.bones.iter().zip(warm.iter()) {
-                    let to = &mut ik_state.solved.angles[b];
-                    *to = from + (*to - from).clamp(-step, step);
-                }
-            }
-            warm.clear();
-            warm.extend(chain.bones.iter().map(|&b| ik_state.solved.angles[b]));
+            ik_state.tracking[g].follow(chain, &mut ik_state.solved, goal.max_speed * dt);
             let weight = goal.weight.clamp(0.0, 1.0);
             for &b in &chain.bones {
                 let (from, to) = (state.pose.angles[b], ik_state.solved.angles[b]);
@@ -564,32 +544,16 @@ fn solve_ik(mut characters: Query<IkCharacter>, transforms: TransformHelper, tim
             }
             ik.results[g] = Some(result);
         }
-        // Hinge rates of the bones IK moved: the rate of their final angle at this step, the
-        // derivative of the parabola through the last three (second order, no lag), or the
-        // last difference while there are only two.
-        let angles = &state.pose.angles;
-        let [last, before] = &ik_state.history;
-        let filled = |h: &Vec<f32>| h.len() == angles.len();
-        if dt > 0.0 && ik_state.history_len >= 1 && filled(last) {
-            let second_order = ik_state.history_len >= 2 && filled(before);
-            for b in 0..keyframed.len() {
-                if angles[b] != keyframed[b] {
-                    state.rate.angle_rates[b] = if second_order {
-                        (3.0 * angles[b] - 4.0 * last[b] + before[b]) / (2.0 * dt)
-                    } else {
-                        (angles[b] - last[b]) / dt
-                    };
-                }
+        // Hinge rates of the bones IK moved: the rates of their final angles at this step.
+        for (b, (&angle, &keyed)) in state.pose.angles.iter().zip(&keyframed).enumerate() {
+            if angle != keyed
+                && let Some(rate) = ik_state.rates.rate(b, angle, dt)
+                && let Some(slot) = state.rate.angle_rates.get_mut(b)
+            {
+                *slot = rate;
             }
         }
-        let IkState {
-            history,
-            history_len,
-            ..
-        } = &mut *ik_state;
-        history.swap(0, 1);
-        history[0].clone_from(&state.pose.angles);
-        *history_len = (*history_len + 1).min(2);
+        ik_state.rates.push(&state.pose.angles);
     }
 }
 
