@@ -193,11 +193,6 @@ impl FrameTracker {
         step
     }
 
-    /// The last step, if there was one.
-    pub fn last(&self) -> Option<&FrameStep> {
-        self.last.as_ref()
-    }
-
     /// Forgets the frame: the next step starts at rest.
     pub fn reset(&mut self) {
         *self = Self::default();
