@@ -3,8 +3,8 @@
 //! are stable with, at the default spring constants).
 
 use bevy_drape::cloth::{SolverMethod, SolverSettings};
-use bevy_drape::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 use criterion::{Criterion, criterion_group, criterion_main};
+use drape_scenes::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 
 fn s1_step(c: &mut Criterion) {
     let methods = [

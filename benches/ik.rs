@@ -1,12 +1,12 @@
-//! One FABRIK solve on hinge chains of 3, 4 and 7 joints ([`bevy_drape::study::ik_chains`]),
+//! One FABRIK solve on hinge chains of 3, 4 and 7 joints ([`drape_scenes::study::ik_chains`]),
 //! to random reachable targets (made by forward kinematics from random chain angles within
 //! the limits), starting from the rest pose.
 //! Before timing, each chain's iterations to reach 1 mm are printed.
 
 use bevy::math::Vec3;
 use bevy_drape::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};
-use bevy_drape::study::{ik_chains, random_pose};
 use criterion::{Criterion, criterion_group, criterion_main};
+use drape_scenes::study::{ik_chains, random_pose};
 
 fn ik(c: &mut Criterion) {
     let chains = ik_chains();

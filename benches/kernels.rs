@@ -8,8 +8,8 @@ use bevy::math::{Vec3A, Vec4};
 use bevy_drape::cloth::SolverSettings;
 use bevy_drape::cloth::batch::PairBatches;
 use bevy_drape::cloth::constraints::{Projection, project_distance};
-use bevy_drape::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 use criterion::{Criterion, criterion_group, criterion_main};
+use drape_scenes::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 
 fn edge_sweep(c: &mut Criterion) {
     let mut sim = HangingCloth { n: 64 }.build();

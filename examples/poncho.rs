@@ -20,13 +20,13 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_drape::interact::adapter::find_graphics_adapter;
-use bevy_drape::poncho::{
-    Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
-    run_headless,
-};
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, OrbitCamera, cloth_material, dress_humanoids, spawn_stage};
+use drape_scenes::poncho::{
+    Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
+    run_headless,
+};
 
 /// The motion the example starts with.
 const START_MOTION: CharacterMotion = CharacterMotion::Tour;
@@ -73,11 +73,9 @@ fn print_s3_figures() {
         ..default()
     };
     let solver = scene.solver;
-    let run = run_headless(scene, 600);
-    if run.particles == 0 {
-        println!("S3: the poncho was not built (assets/meshes/poncho.obj not found?)");
-    } else {
-        println!("S3 (10 s headless): {}", run.json(&solver));
+    match run_headless(scene, 600) {
+        Ok(run) => println!("S3 (10 s headless): {}", run.json(&solver)),
+        Err(e) => println!("S3: {e}"),
     }
 }
 

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
-//! `bevy_drape::poncho::CharacterMotion`); `--inertia` is the poncho's
+//! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
 //! `ClothSettings::inertia`.
 //!
 //! `--k-*` set the spring stiffnesses (N/m) of the mass-spring and hybrid methods;
@@ -19,9 +19,9 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy_drape::cloth::{PonchoDesc, SolverMethod, SolverSettings};
-use bevy_drape::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
-use bevy_drape::scenes::{
-    Drape, DrapeRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
+use drape_scenes::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
+use drape_scenes::scenes::{
+    Drape, DrapeRun, FRAME_RATE, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
 };
 
 fn main() {
@@ -103,22 +103,24 @@ fn run() -> Result<(), String> {
             let mut last: Option<SceneRun> = None;
             for _ in 0..runs.max(1) {
                 let run = scene.run(&settings, frames);
-                all_frames.extend_from_slice(&run.frame_seconds);
+                all_frames.extend_from_slice(&run.trajectory.frame_seconds);
                 last = Some(run);
             }
             let run = last.expect("at least one run");
             let vec = |v: bevy::math::Vec3| format!("[{:.5},{:.5},{:.5}]", v.x, v.y, v.z);
-            let corner: Vec<String> = run.samples.iter().map(|s| vec(s.corner)).collect();
-            let center: Vec<String> = run.samples.iter().map(|s| vec(s.center)).collect();
-            let times: Vec<String> = run
-                .samples
+            let frames = run.sample_frames();
+            let at = |track: &[bevy::math::Vec3]| -> Vec<String> {
+                frames.iter().map(|&f| vec(track[f as usize - 1])).collect()
+            };
+            let (corner, center) = (at(&run.trajectory.corner), at(&run.trajectory.center));
+            let times: Vec<String> = frames
                 .iter()
-                .map(|s| format!("{:.3}", s.time))
+                .map(|&f| format!("{:.3}", f as f32 / FRAME_RATE))
                 .collect();
             println!(
                 "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"substeps_used\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{},\"diverged\":{}}}",
                 settings.substeps,
-                run.substeps,
+                run.trajectory.substeps.iter().max().unwrap_or(&0),
                 settings.iterations,
                 settings.long_range_attachments,
                 if settings.isometric_bending {
@@ -127,7 +129,7 @@ fn run() -> Result<(), String> {
                     "dihedral"
                 },
                 median(&all_frames) * 1e3,
-                run.max_strain,
+                run.sim.strain().max,
                 run.mean_strain,
                 times.join(","),
                 corner.join(","),
@@ -207,13 +209,8 @@ fn run() -> Result<(), String> {
                 // Run from the repository root, where the assets are.
                 scene.source = PonchoSource::Asset("meshes/poncho.obj".into());
             }
-            let run = run_headless(scene, frames);
-            if run.particles == 0 {
-                return Err(
-                    "the poncho was not built (is the working directory the repository root?)"
-                        .into(),
-                );
-            }
+            let run = run_headless(scene, frames)
+                .map_err(|e| format!("{e} (is the working directory the repository root?)"))?;
             println!("{}", run.json(&settings));
             Ok(())
         }

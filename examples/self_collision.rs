@@ -13,8 +13,8 @@ mod common;
 
 use bevy::prelude::*;
 use bevy_drape::prelude::*;
-use bevy_drape::scenes::SheetDrop;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
+use drape_scenes::scenes::SheetDrop;
 
 const N: u32 = 32;
 

@@ -1,5 +1,5 @@
 //! Speed against accuracy, and where each method fails: runs the study of `docs/benchmarks.md`
-//! ([`bevy_drape::study`]) and writes its charts (SVG and PNG) and their data (CSV) into
+//! ([`drape_scenes::study`]) and writes its charts (SVG and PNG) and their data (CSV) into
 //! `docs/charts/`.
 //!
 //! ```text
@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bevy_drape::cloth::SolverMethod;
-use bevy_drape::scenes::FRAME_RATE;
-use bevy_drape::study::{
+use drape_scenes::scenes::FRAME_RATE;
+use drape_scenes::study::{
     self, Budget, REFERENCE_SUBSTEPS, RUN_FRAMES, STUDY_N, StudyPoint, TRAJECTORY_FRAMES,
 };
 use plotters::coord::Shift;

@@ -9,11 +9,8 @@ pub mod collide;
 pub mod error;
 pub mod interact;
 pub mod mesh;
-pub mod poncho;
-pub mod scenes;
 pub mod schedule;
 pub mod skeleton;
-pub mod study;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;

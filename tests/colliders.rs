@@ -7,7 +7,7 @@ use std::sync::Arc;
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy_drape::cloth::{ClothModel, ClothSim, GridDesc, SolverMethod, SolverSettings};
 use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape, TriMesh};
-use bevy_drape::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
+use drape_scenes::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
 
 const DT: f32 = 1.0 / FRAME_RATE;
 

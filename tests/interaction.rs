@@ -6,7 +6,7 @@ use bevy_drape::cloth::{
     ClothModel, ClothSim, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::interact::pick::pick_particle;
-use bevy_drape::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
+use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
 
 const DT: f32 = 1.0 / FRAME_RATE;
 

@@ -7,7 +7,7 @@ use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
     ClothModel, ClothSim, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
 };
-use bevy_drape::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
+use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
 
 const MASS: f32 = 0.5;
 const K: f32 = 100.0;
@@ -171,15 +171,8 @@ fn stiff_cloth_settings(auto_substeps: bool) -> SolverSettings {
 
 /// Runs S1 at `n` for `frames` frames; returns the frame it diverged at, if it did.
 fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> (ClothSim, Option<u32>) {
-    let scene = HangingCloth { n };
-    let mut sim = scene.build();
-    for frame in 1..=frames {
-        sim.step(settings, GRAVITY, 1.0 / FRAME_RATE);
-        if sim.divergence(&DivergenceBounds::default()).is_some() {
-            return (sim, Some(frame));
-        }
-    }
-    (sim, None)
+    let run = HangingCloth { n }.run(settings, frames);
+    (run.sim, run.divergence.map(|(frame, _)| frame))
 }
 
 #[test]

@@ -5,7 +5,7 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use bevy_drape::cloth::SolverSettings;
-use bevy_drape::scenes::{GRAVITY, HangingCloth};
+use drape_scenes::scenes::{GRAVITY, HangingCloth};
 
 struct Counting;
 

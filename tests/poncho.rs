@@ -2,8 +2,8 @@
 //! place, walking through the world, jogging and teleported, 10 s each.
 
 use bevy_drape::cloth::{PonchoDesc, to_obj};
-use bevy_drape::poncho::{CharacterMotion, PonchoScene, run_headless};
 use bevy_drape::prelude::*;
+use drape_scenes::poncho::{CharacterMotion, PonchoScene, run_headless};
 
 #[test]
 fn the_poncho_stays_on_the_character_in_every_motion() {
@@ -20,7 +20,8 @@ fn the_poncho_stays_on_the_character_in_every_motion() {
                 ..PonchoScene::default()
             },
             600,
-        );
+        )
+        .unwrap();
         assert_eq!(run.steps, 600);
         assert!(run.particles > 1000, "the poncho was built from its file");
         if let Err(why) = run.check(margin) {
@@ -61,7 +62,7 @@ fn walking_through_the_world_the_stance_foot_does_not_skate() {
     // left foot's is the first half of the clip's cycle, the right foot's the second), the
     // stance foot is put down and lifted at nearly the same place in the world while the
     // character walks its first straight at 1.2 m/s.
-    let mut app = bevy_drape::poncho::headless_app(PonchoScene {
+    let mut app = drape_scenes::poncho::headless_app(PonchoScene {
         motion: CharacterMotion::Walk,
         ..PonchoScene::default()
     });

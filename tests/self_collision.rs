@@ -7,7 +7,7 @@ use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_drape::prelude::*;
-use bevy_drape::scenes::{SheetDrop, closest_non_adjacent};
+use drape_scenes::scenes::{SheetDrop, closest_non_adjacent};
 
 /// Drops the sheet for 3 s in an App and returns, over every frame, the closest two particles
 /// that share no edge came, in grid spacings (infinite if never within one spacing), and the

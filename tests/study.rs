@@ -3,9 +3,10 @@
 //! bound holds, the interpolation orders are right), and the adaptive substep budget.
 
 use bevy_drape::cloth::{AdaptiveSubsteps, SolverMethod};
-use bevy_drape::study::{
+use drape_scenes::scenes::HangingCloth;
+use drape_scenes::study::{
     self, Budget, RUN_FRAMES, TRAJECTORY_FRAMES, equal_cost_splits, error_against_cost,
-    fewest_fixed_substeps_for_strain, meets_strain, reference, run_s1,
+    fewest_fixed_substeps_for_strain, meets_strain, reference,
 };
 
 #[test]
@@ -128,7 +129,7 @@ fn the_adaptive_budget_meets_its_target_with_fewer_substeps_than_a_fixed_budget(
     let mut settings = fixed_settings;
     settings.substeps = 8;
     settings.adaptive = Some(AdaptiveSubsteps::target(target));
-    let run = run_s1(n, &settings, RUN_FRAMES);
+    let run = HangingCloth { n }.run(&settings, RUN_FRAMES).trajectory;
     let over = run.strain.iter().filter(|&&s| s > target).count();
     println!(
         "fixed budget: {fixed} substeps; adaptive: mean {:.2} substeps, {over} of {} frames over, end strain {:.4}, counts {:?}",

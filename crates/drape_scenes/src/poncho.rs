@@ -13,16 +13,16 @@ use std::sync::Arc;
 
 use bevy::prelude::*;
 
-use crate::cloth::PonchoDesc;
-use crate::cloth::mesh::grid_mesh_from;
-use crate::cloth::plugin::{Cloth, ClothSettings};
-use crate::cloth::settings::{DivergenceBounds, SolverSettings};
-use crate::collide::plugin::ClothCollider;
-use crate::schedule::{DrapeSystems, DrapeTimings};
-use crate::skeleton::humanoid::humanoid;
-use crate::skeleton::ik::IkSettings;
-use crate::skeleton::plugin::{
-    BoneColliders, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
+use bevy_drape::cloth::PonchoDesc;
+use bevy_drape::cloth::mesh::grid_mesh_from;
+use bevy_drape::cloth::plugin::{Cloth, ClothBuildError, ClothSettings};
+use bevy_drape::cloth::settings::{DivergenceBounds, SolverSettings};
+use bevy_drape::collide::plugin::ClothCollider;
+use bevy_drape::schedule::{DrapeSystems, DrapeTimings};
+use bevy_drape::skeleton::humanoid::humanoid;
+use bevy_drape::skeleton::ik::IkSettings;
+use bevy_drape::skeleton::plugin::{
+    BoneColliders, ClipAsset, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
 };
 
 /// Where the poncho comes from.
@@ -209,7 +209,7 @@ struct Leg {
 /// A stand-in for a game's character controller: moves the character entity's [`Transform`]
 /// every fixed step along its [`CharacterMotion`] (speed changed at 4 m/s^2 at most, turns at
 /// a set rate) and plays the walk clip at the speed that matches its ground speed
-/// ([`Clip::stance_speed`](crate::skeleton::clip::Clip::stance_speed)), so the feet do not
+/// ([`Clip::stance_speed`](bevy_drape::skeleton::clip::Clip::stance_speed)), so the feet do not
 /// skate.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
@@ -350,7 +350,7 @@ fn drive_characters(
         &mut Transform,
         Option<&mut ClipPlayer>,
     )>,
-    clips: Res<Assets<crate::skeleton::plugin::ClipAsset>>,
+    clips: Res<Assets<bevy_drape::skeleton::plugin::ClipAsset>>,
     time: Res<Time>,
 ) {
     for (skeleton, mut controller, mut transform, player) in &mut characters {
@@ -365,7 +365,7 @@ fn drive_characters(
                 .iter()
                 .filter_map(|f| rig.find(f))
                 .collect();
-            controller.stance_speed = crate::skeleton::clip::Clip::new(&asset.0, rig)
+            controller.stance_speed = bevy_drape::skeleton::clip::Clip::new(&asset.0, rig)
                 .ok()
                 .and_then(|clip| clip.stance_speed(rig, &feet, Vec3::Z));
         }
@@ -504,7 +504,7 @@ pub struct PonchoRun {
     pub travelled: f32,
     /// Whether every position stayed finite.
     pub finite: bool,
-    /// How many times the poncho diverged ([`crate::cloth::plugin::ClothDiverged`]).
+    /// How many times the poncho diverged ([`bevy_drape::cloth::plugin::ClothDiverged`]).
     pub divergences: u32,
     /// Whether the poncho was frozen after any step.
     pub frozen: bool,
@@ -512,6 +512,34 @@ pub struct PonchoRun {
     pub particles: usize,
     /// Fixed steps run.
     pub steps: u32,
+}
+
+/// The `s3` line of the `scenes` runner (field order is the line's).
+#[derive(serde::Serialize)]
+struct S3Line {
+    scene: &'static str,
+    motion: &'static str,
+    particles: usize,
+    method: &'static str,
+    self_collision: bool,
+    substeps: u32,
+    iterations: u32,
+    frames: u32,
+    ms_per_frame: f64,
+    ms_animation: f64,
+    ms_ik: f64,
+    ms_colliders: f64,
+    ms_cloth: f64,
+    deepest_penetration: f32,
+    step_max_strain_median: f32,
+    step_max_strain_max: f32,
+    edge_strain_p999: f32,
+    max_centroid_offset: f32,
+    max_kinetic_energy: f32,
+    travelled: f32,
+    divergences: u32,
+    frozen: bool,
+    finite: bool,
 }
 
 /// The width of a bin of [`PonchoRun::strain_histogram`].
@@ -523,31 +551,32 @@ impl PonchoRun {
     /// The run's figures as one JSON object (the `scenes` runner's `s3` line), with the
     /// solver settings it ran with.
     pub fn json(&self, solver: &SolverSettings) -> String {
-        format!(
-            "{{\"scene\":\"s3\",\"motion\":\"{}\",\"particles\":{},\"method\":\"{}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"frames\":{},\"ms_per_frame\":{:.4},\"ms_animation\":{:.4},\"ms_ik\":{:.4},\"ms_colliders\":{:.4},\"ms_cloth\":{:.4},\"deepest_penetration\":{:.6},\"step_max_strain_median\":{:.6},\"step_max_strain_max\":{:.6},\"edge_strain_p999\":{:.6},\"max_centroid_offset\":{:.4},\"max_kinetic_energy\":{:.5},\"travelled\":{:.2},\"divergences\":{},\"frozen\":{},\"finite\":{}}}",
-            self.motion.name(),
-            self.particles,
-            solver.method.name(),
-            solver.self_collision,
-            solver.substeps,
-            solver.iterations,
-            self.steps,
-            self.median_ms(4),
-            self.median_ms(0),
-            self.median_ms(1),
-            self.median_ms(2),
-            self.median_ms(3),
-            self.deepest_penetration,
-            self.step_strain_median(),
-            self.step_strain_max(),
-            self.edge_strain_percentile(0.999),
-            self.max_centroid_offset,
-            self.max_kinetic_energy,
-            self.travelled,
-            self.divergences,
-            self.frozen,
-            self.finite
-        )
+        let line = S3Line {
+            scene: "s3",
+            motion: self.motion.name(),
+            particles: self.particles,
+            method: solver.method.name(),
+            self_collision: solver.self_collision,
+            substeps: solver.substeps,
+            iterations: solver.iterations,
+            frames: self.steps,
+            ms_per_frame: self.median_ms(4),
+            ms_animation: self.median_ms(0),
+            ms_ik: self.median_ms(1),
+            ms_colliders: self.median_ms(2),
+            ms_cloth: self.median_ms(3),
+            deepest_penetration: self.deepest_penetration,
+            step_max_strain_median: self.step_strain_median(),
+            step_max_strain_max: self.step_strain_max(),
+            edge_strain_p999: self.edge_strain_percentile(0.999),
+            max_centroid_offset: self.max_centroid_offset,
+            max_kinetic_energy: self.max_kinetic_energy,
+            travelled: self.travelled,
+            divergences: self.divergences,
+            frozen: self.frozen,
+            finite: self.finite,
+        };
+        serde_json::to_string(&line).expect("the figures are plain numbers and names")
     }
 
     /// The median of one stage's times (`0..4`, see [`PonchoRun::stage_ms`]), or of the whole
@@ -620,7 +649,7 @@ impl PonchoRun {
     }
 }
 
-/// A headless App (`MinimalPlugins`, transforms, assets, meshes) with [`crate::DrapePlugins`]
+/// A headless App (`MinimalPlugins`, transforms, assets, meshes) with [`bevy_drape::DrapePlugins`]
 /// and the scene, stepping one 1/60 s fixed step per update.
 pub fn headless_app(scene: PonchoScene) -> App {
     let mut app = App::new();
@@ -629,7 +658,7 @@ pub fn headless_app(scene: PonchoScene) -> App {
         TransformPlugin,
         AssetPlugin::default(),
         bevy::mesh::MeshPlugin,
-        crate::DrapePlugins::default(),
+        bevy_drape::DrapePlugins::default(),
         PonchoScenePlugin,
     ))
     .insert_resource(scene)
@@ -637,37 +666,35 @@ pub fn headless_app(scene: PonchoScene) -> App {
     app
 }
 
-/// Runs the scene headless for `steps` fixed steps at 60 Hz (after waiting for its files to
-/// load) and measures it after every step.
-pub fn run_headless(scene: PonchoScene, steps: u32) -> PonchoRun {
+/// How long [`run_headless`] waits for the scene's files (the poncho mesh and the walk clip)
+/// to load before it gives up.
+pub const LOAD_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
+
+/// Runs the scene headless for `steps` fixed steps at 60 Hz, once its files have loaded, and
+/// measures it after every step. Fails if the poncho could not be built or the files did not
+/// load within [`LOAD_TIMEOUT`].
+pub fn run_headless(scene: PonchoScene, steps: u32) -> Result<PonchoRun, String> {
     use bevy::time::TimeUpdateStrategy;
-    use std::time::Duration;
+    use std::time::{Duration, Instant};
 
     let motion = scene.motion;
     let mut app = headless_app(scene);
+    // Time stands still until the poncho is built and the clip is playing; the files load on
+    // the asset server's threads meanwhile.
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-    // Wait (with time standing still) until the poncho is built and the clip is playing.
-    for _ in 0..2000 {
+    let deadline = Instant::now() + LOAD_TIMEOUT;
+    loop {
         app.update();
-        let world = app.world_mut();
-        let built = world
-            .query_filtered::<(), (With<Poncho>, With<crate::cloth::plugin::ClothSimulation>)>()
-            .iter(world)
-            .next()
-            .is_some();
-        let clip_loaded = {
-            let clips = world.resource::<Assets<crate::skeleton::plugin::ClipAsset>>();
-            !clips.is_empty()
-        };
-        let failed = world
-            .query_filtered::<(), (With<Poncho>, With<crate::cloth::plugin::ClothBuildError>)>()
-            .iter(world)
-            .next()
-            .is_some();
-        if (built && clip_loaded) || failed {
-            break;
+        match scene_ready(app.world_mut()) {
+            Ok(true) => break,
+            Ok(false) if Instant::now() < deadline => std::thread::yield_now(),
+            Ok(false) => {
+                return Err(format!(
+                    "the poncho scene's files did not load within {LOAD_TIMEOUT:?}"
+                ));
+            }
+            Err(e) => return Err(e),
         }
-        std::thread::sleep(Duration::from_millis(2));
     }
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
         1.0 / 60.0,
@@ -701,8 +728,50 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> PonchoRun {
         if let (Some(a), Some(b)) = (start, character_position(&mut app)) {
             run.travelled = run.travelled.max(a.distance(b));
         }
+        if run.particles == 0
+            && let Some(error) = build_error(app.world_mut())
+        {
+            return Err(error);
+        }
     }
-    run
+    Ok(run)
+}
+
+/// Whether the poncho's mesh and the walk clip are loaded (the cloth is built from them in the
+/// first fixed step); the reason if one of them failed to load.
+fn scene_ready(world: &mut World) -> Result<bool, String> {
+    let server = world.resource::<AssetServer>().clone();
+    let meshes: Vec<AssetId<Mesh>> = world
+        .query_filtered::<&Mesh3d, With<Poncho>>()
+        .iter(world)
+        .map(|mesh| mesh.0.id())
+        .collect();
+    let clips: Vec<AssetId<ClipAsset>> = world
+        .query_filtered::<&ClipPlayer, With<Character>>()
+        .iter(world)
+        .map(|player| player.clip.id())
+        .collect();
+    let untyped = meshes.iter().map(|id| id.untyped());
+    for id in untyped.chain(clips.iter().map(|id| id.untyped())) {
+        if let Some(bevy::asset::LoadState::Failed(error)) = server.get_load_state(id) {
+            return Err(format!("a file of the poncho scene did not load: {error}"));
+        }
+    }
+    let mesh_assets = world.resource::<Assets<Mesh>>();
+    let clip_assets = world.resource::<Assets<ClipAsset>>();
+    Ok(!meshes.is_empty()
+        && !clips.is_empty()
+        && meshes.iter().all(|&id| mesh_assets.get(id).is_some())
+        && clips.iter().all(|&id| clip_assets.get(id).is_some()))
+}
+
+/// The reason the poncho could not be built, if it could not.
+fn build_error(world: &mut World) -> Option<String> {
+    world
+        .query_filtered::<&ClothBuildError, With<Poncho>>()
+        .iter(world)
+        .next()
+        .map(|error| format!("the poncho could not be built: {}", error.0))
 }
 
 fn character_position(app: &mut App) -> Option<Vec3> {
@@ -715,15 +784,15 @@ fn character_position(app: &mut App) -> Option<Vec3> {
 }
 
 fn measure(app: &mut App, run: &mut PonchoRun) {
-    use crate::collide::Shape;
+    use bevy_drape::collide::Shape;
     let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
     let world = app.world_mut();
     run.divergences += world
-        .resource_mut::<Messages<crate::cloth::plugin::ClothDiverged>>()
+        .resource_mut::<Messages<bevy_drape::cloth::plugin::ClothDiverged>>()
         .drain()
         .count() as u32;
     let chest = world
-        .query_filtered::<&crate::skeleton::plugin::SkeletonBones, With<Character>>()
+        .query_filtered::<&bevy_drape::skeleton::plugin::SkeletonBones, With<Character>>()
         .iter(world)
         .next()
         .and_then(|bones| bones.get("chest"));
@@ -738,7 +807,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         })
         .map(|g| g.translation());
     let mut ponchos =
-        world.query_filtered::<&crate::cloth::plugin::ClothSimulation, With<Poncho>>();
+        world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
     for simulation in ponchos.iter(world) {
         let sim = simulation.sim();
         let x = &sim.state().positions;

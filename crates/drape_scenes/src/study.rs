@@ -32,16 +32,16 @@ use std::time::Instant;
 
 use bevy::math::Vec3;
 
-use crate::cloth::isometric_bending::IsometricPair;
-use crate::cloth::{
+use crate::scenes::{FRAME_RATE, GRAVITY, HangingCloth, Trajectory};
+use bevy_drape::cloth::isometric_bending::IsometricPair;
+use bevy_drape::cloth::{
     AdaptiveSubsteps, DampingMode, DivergenceBounds, EdgeKind, SolverMethod, SolverSettings,
     SpringConstants, SpringSet, SpringSettings,
 };
-use crate::scenes::{FRAME_RATE, GRAVITY, HangingCloth, median};
-use crate::skeleton::humanoid::humanoid;
-use crate::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};
-use crate::skeleton::rig::{BoneDesc, Pose, Rig};
-use crate::skeleton::spline::KeySpline;
+use bevy_drape::skeleton::humanoid::humanoid;
+use bevy_drape::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};
+use bevy_drape::skeleton::rig::{BoneDesc, Pose, Rig};
+use bevy_drape::skeleton::spline::KeySpline;
 
 /// Vertices per side of the study's S1 sheet.
 pub const STUDY_N: u32 = 32;
@@ -86,65 +86,6 @@ impl Budget {
             ..SolverSettings::default()
         }
     }
-}
-
-/// Every frame of a run of S1.
-#[derive(Clone, Debug, Default)]
-pub struct Trajectory {
-    /// The free corner's position after each of the first [`TRAJECTORY_FRAMES`] frames.
-    pub corner: Vec<Vec3>,
-    /// The centre vertex's position after each of those frames.
-    pub center: Vec<Vec3>,
-    /// Wall time of each frame, seconds.
-    pub frame_seconds: Vec<f64>,
-    /// Substeps each frame used.
-    pub substeps: Vec<u32>,
-    /// Largest structural strain after each frame.
-    pub strain: Vec<f32>,
-    /// Whether the run diverged ([`DivergenceBounds::default`]); it stops there.
-    pub diverged: bool,
-}
-
-impl Trajectory {
-    /// Milliseconds of wall time per simulated second: the median frame times the frame rate.
-    pub fn ms_per_second(&self) -> f64 {
-        median(&self.frame_seconds) * 1e3 * FRAME_RATE as f64
-    }
-
-    /// The largest strain at the end of the run.
-    pub fn end_strain(&self) -> f32 {
-        self.strain.last().copied().unwrap_or(f32::INFINITY)
-    }
-
-    /// The mean substep count per frame.
-    pub fn mean_substeps(&self) -> f32 {
-        self.substeps.iter().sum::<u32>() as f32 / self.substeps.len().max(1) as f32
-    }
-}
-
-/// Runs S1 with `n` vertices per side for `frames` frames.
-pub fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> Trajectory {
-    let scene = HangingCloth { n };
-    let mut sim = scene.build();
-    let dt = 1.0 / FRAME_RATE;
-    let mut run = Trajectory::default();
-    for frame in 0..frames {
-        let start = Instant::now();
-        sim.step(settings, GRAVITY, dt);
-        run.frame_seconds.push(start.elapsed().as_secs_f64());
-        run.substeps.push(sim.last_substeps());
-        if !sim.is_finite() || sim.divergence(&DivergenceBounds::default()).is_some() {
-            run.diverged = true;
-            break;
-        }
-        run.strain.push(sim.strain().max);
-        if frame < TRAJECTORY_FRAMES {
-            let x = &sim.state().positions;
-            run.corner.push(x[scene.corner() as usize].into());
-            run.center.push(x[scene.center() as usize].into());
-        }
-    }
-    run
 }
 
 /// The reference run of S1 at `n`: XPBD in `f64` with `substeps` per frame (the study uses
@@ -372,7 +313,7 @@ pub fn measure(
     reference: &Trajectory,
     frames: u32,
 ) -> StudyPoint {
-    let run = run_s1(n, settings, frames);
+    let run = HangingCloth { n }.run(settings, frames).trajectory;
     StudyPoint {
         budget,
         stable: !run.diverged,
@@ -837,16 +778,16 @@ pub fn fewest_fixed_substeps_for_strain(
     max_substeps: u32,
 ) -> Option<u32> {
     (1..=max_substeps).find(|&s| {
-        let run = run_s1(
-            n,
-            &SolverSettings {
-                substeps: s,
-                adaptive: None,
-                ..*settings
-            },
-            frames,
-        );
-        meets_strain(&run, target, fraction)
+        let settings = SolverSettings {
+            substeps: s,
+            adaptive: None,
+            ..*settings
+        };
+        meets_strain(
+            &HangingCloth { n }.run(&settings, frames).trajectory,
+            target,
+            fraction,
+        )
     })
 }
 

@@ -6,10 +6,10 @@ use std::time::Instant;
 
 use bevy::math::Vec3;
 
-use crate::cloth::{
+use bevy_drape::cloth::{
     ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SelfCollision, SolverSettings,
 };
-use crate::collide::{Collider, ContactMaterial, RigidPose, Shape};
+use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape};
 
 /// Frame rate of the standard scenes, Hz.
 pub const FRAME_RATE: f32 = 60.0;
@@ -58,45 +58,36 @@ impl HangingCloth {
         sim
     }
 
-    /// Runs `frames` frames at [`FRAME_RATE`] and records what S1 reports. The run stops
-    /// early if the cloth diverges ([`DivergenceBounds::default`]).
+    /// Runs `frames` frames at [`FRAME_RATE`] and records every frame: the run behind S1's
+    /// figures, the speed-against-accuracy study and the tests. The run stops early if the
+    /// cloth diverges ([`DivergenceBounds::default`]).
     pub fn run(&self, settings: &SolverSettings, frames: u32) -> SceneRun {
         let mut sim = self.build();
         let dt = 1.0 / FRAME_RATE;
-        let mut samples = Vec::new();
-        let mut frame_seconds = Vec::with_capacity(frames as usize);
+        let mut run = Trajectory::default();
         let mut finite = true;
         let mut divergence = None;
-        let mut substeps = 0;
         for frame in 1..=frames {
             let start = Instant::now();
             sim.step(settings, GRAVITY, dt);
-            frame_seconds.push(start.elapsed().as_secs_f64());
-            substeps = substeps.max(sim.last_substeps());
+            run.frame_seconds.push(start.elapsed().as_secs_f64());
+            run.substeps.push(sim.last_substeps());
             finite &= sim.is_finite();
             if let Some(d) = sim.divergence(&DivergenceBounds::default()) {
                 divergence = Some((frame, d));
+                run.diverged = true;
                 break;
             }
-            if frame == 30 || frame == 60 || frame == 120 || frame == frames {
-                let x = &sim.state().positions;
-                samples.push(Sample {
-                    time: frame as f32 * dt,
-                    corner: x[self.corner() as usize].into(),
-                    center: x[self.center() as usize].into(),
-                });
-            }
+            run.strain.push(sim.strain().max);
+            let x = &sim.state().positions;
+            run.corner.push(x[self.corner() as usize].into());
+            run.center.push(x[self.center() as usize].into());
         }
-        samples.dedup_by(|a, b| a.time == b.time);
-        let strain = sim.strain();
         SceneRun {
-            frame_seconds,
-            max_strain: strain.max,
-            mean_strain: strain.mean,
-            samples,
+            mean_strain: sim.strain().mean,
+            trajectory: run,
             finite,
             divergence,
-            substeps,
             sim,
         }
     }
@@ -313,34 +304,51 @@ pub struct DrapeRun {
     pub sim: ClothSim,
 }
 
-/// Positions of the tracked vertices at one time.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sample {
-    /// Simulated time, s.
-    pub time: f32,
-    /// The free corner.
-    pub corner: Vec3,
-    /// The centre vertex.
-    pub center: Vec3,
+/// Every frame of a run of S1.
+#[derive(Clone, Debug, Default)]
+pub struct Trajectory {
+    /// The free corner's position after each frame.
+    pub corner: Vec<Vec3>,
+    /// The centre vertex's position after each frame.
+    pub center: Vec<Vec3>,
+    /// Wall time of each frame, seconds.
+    pub frame_seconds: Vec<f64>,
+    /// Substeps each frame used.
+    pub substeps: Vec<u32>,
+    /// Largest structural strain after each frame.
+    pub strain: Vec<f32>,
+    /// Whether the run diverged ([`DivergenceBounds::default`]); it stops there.
+    pub diverged: bool,
 }
 
-/// The outcome of one scene run.
+impl Trajectory {
+    /// Milliseconds of wall time per simulated second: the median frame times the frame rate.
+    pub fn ms_per_second(&self) -> f64 {
+        median(&self.frame_seconds) * 1e3 * FRAME_RATE as f64
+    }
+
+    /// The largest strain at the end of the run.
+    pub fn end_strain(&self) -> f32 {
+        self.strain.last().copied().unwrap_or(f32::INFINITY)
+    }
+
+    /// The mean substep count per frame.
+    pub fn mean_substeps(&self) -> f32 {
+        self.substeps.iter().sum::<u32>() as f32 / self.substeps.len().max(1) as f32
+    }
+}
+
+/// The outcome of one S1 run.
 #[derive(Clone, Debug)]
 pub struct SceneRun {
-    /// Wall time of every frame, s.
-    pub frame_seconds: Vec<f64>,
-    /// Largest structural strain at the end.
-    pub max_strain: f32,
+    /// What every frame measured.
+    pub trajectory: Trajectory,
     /// Mean structural strain at the end.
     pub mean_strain: f32,
-    /// Tracked positions at t = 0.5, 1 and 2 s (those reached) and at the end.
-    pub samples: Vec<Sample>,
     /// Whether the state stayed finite throughout.
     pub finite: bool,
     /// The frame (from 1) at which the cloth diverged and how; the run stopped there.
     pub divergence: Option<(u32, Divergence)>,
-    /// The most substeps a frame took.
-    pub substeps: u32,
     /// The cloth at the end.
     pub sim: ClothSim,
 }
@@ -348,7 +356,20 @@ pub struct SceneRun {
 impl SceneRun {
     /// Median wall time per frame, ms.
     pub fn median_ms_per_frame(&self) -> f64 {
-        median(&self.frame_seconds) * 1e3
+        median(&self.trajectory.frame_seconds) * 1e3
+    }
+
+    /// The frames S1 reports positions at (t = 0.5, 1 and 2 s, those reached, and the last),
+    /// counted from 1.
+    pub fn sample_frames(&self) -> Vec<u32> {
+        let last = self.trajectory.corner.len() as u32;
+        let mut frames: Vec<u32> = [30, 60, 120]
+            .into_iter()
+            .filter(|&f| f < last)
+            .chain((last > 0).then_some(last))
+            .collect();
+        frames.dedup();
+        frames
     }
 }
 
