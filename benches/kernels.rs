@@ -6,8 +6,10 @@
 
 use bevy::math::{Vec3A, Vec4};
 use bevy_drape::cloth::SolverSettings;
-use bevy_drape::cloth::batch::PairBatches;
-use bevy_drape::cloth::constraints::{Projection, project_distance};
+use bevy_drape::cloth::internals::{
+    PairBatches, Projection, project_distance, straight_line_limits,
+};
+use bevy_drape::cloth::{Edge, EdgeKind};
 use criterion::{Criterion, criterion_group, criterion_main};
 use drape_scenes::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 
@@ -70,9 +72,17 @@ fn edge_sweep(c: &mut Criterion) {
     group.bench_function("copy_only", |b| b.iter(|| x.copy_from_slice(&x0)));
     group.finish();
 
-    // The long-range constraints of the same cloth: stretch limits and tethers.
+    // The long-range constraints of the same cloth: stretch limits (along the straight lines
+    // of the structural edges, as the solver builds them) and tethers.
+    let structural: Vec<Edge> = edges
+        .iter()
+        .copied()
+        .filter(|e| e.kind == EdgeKind::Structural)
+        .collect();
     let mut limits = PairBatches::new(
-        sim.stretch_limits().iter().map(|l| (l.particles, l.length)),
+        straight_line_limits(&sim.model().rest_positions, &structural)
+            .iter()
+            .map(|l| (l.particles, l.length)),
         x0.len(),
         true,
     );

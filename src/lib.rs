@@ -25,7 +25,7 @@ use skeleton::plugin::SkeletonPlugin;
 /// Everything most users import.
 pub mod prelude {
     pub use crate::DrapePlugins;
-    pub use crate::cloth::debug_colors::DebugColorMode;
+    pub use crate::cloth::DebugColorMode;
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,

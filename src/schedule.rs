@@ -85,11 +85,11 @@ impl DrapeTimings {
 /// adds its fixed-step systems to (set by [`DrapeSchedulePlugin`], [`FixedPostUpdate`] if it
 /// is absent).
 #[derive(bevy::prelude::Resource, Debug, Clone, Copy)]
-pub struct DrapeSchedule(pub Interned<dyn ScheduleLabel>);
+pub(crate) struct DrapeSchedule(pub(crate) Interned<dyn ScheduleLabel>);
 
 impl DrapeSchedule {
     /// The drape schedule of `app`.
-    pub fn of(app: &App) -> Interned<dyn ScheduleLabel> {
+    pub(crate) fn of(app: &App) -> Interned<dyn ScheduleLabel> {
         app.world()
             .get_resource::<DrapeSchedule>()
             .map_or_else(|| FixedPostUpdate.intern(), |s| s.0)

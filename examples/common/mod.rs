@@ -7,7 +7,7 @@
 //! - `DRAPE_SCREENSHOT=path.png`: where to save it (default `screenshot.png`).
 
 #[allow(dead_code)]
-pub mod offscreen;
+pub(crate) mod offscreen;
 
 use bevy::app::AppExit;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
@@ -15,7 +15,7 @@ use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 
 /// Adds the orbit camera controls and the screenshot-and-exit switch.
-pub struct ExamplePlugin;
+pub(crate) struct ExamplePlugin;
 
 impl Plugin for ExamplePlugin {
     fn build(&self, app: &mut App) {
@@ -42,7 +42,7 @@ impl Plugin for ExamplePlugin {
 /// A camera that orbits `focus`: drag with the left or right mouse button to turn (the left
 /// one drags cloth when pressed on a cloth), scroll to zoom.
 #[derive(Component, Clone, Copy, Debug)]
-pub struct OrbitCamera {
+pub(crate) struct OrbitCamera {
     /// The point looked at.
     pub focus: Vec3,
     /// Distance from the focus, metres.
@@ -55,7 +55,7 @@ pub struct OrbitCamera {
 
 impl OrbitCamera {
     /// The camera transform for this orbit.
-    pub fn transform(&self) -> Transform {
+    pub(crate) fn transform(&self) -> Transform {
         let rotation = Quat::from_euler(EulerRot::YXZ, self.yaw, -self.pitch, 0.0);
         let position = self.focus + rotation * Vec3::Z * self.radius;
         Transform::from_translation(position).looking_at(self.focus, Vec3::Y)
@@ -121,7 +121,7 @@ fn smoke_run(mut commands: Commands, mut run: ResMut<SmokeRun>, mut exit: Messag
 }
 
 /// A ground square, a light and an orbit camera looking at `focus`.
-pub fn spawn_stage(
+pub(crate) fn spawn_stage(
     commands: &mut Commands,
     meshes: &mut Assets<Mesh>,
     materials: &mut Assets<StandardMaterial>,
@@ -155,7 +155,7 @@ pub fn spawn_stage(
 
 /// A double-sided cloth material.
 #[allow(dead_code)]
-pub fn cloth_material(
+pub(crate) fn cloth_material(
     materials: &mut Assets<StandardMaterial>,
     color: Color,
 ) -> Handle<StandardMaterial> {
@@ -173,7 +173,7 @@ pub fn cloth_material(
 /// the feet, each a child of its bone entity, so what you see is what the cloth touches. Add
 /// as an `Update` system; it dresses every skeleton once.
 #[allow(dead_code)]
-pub fn dress_humanoids(
+pub(crate) fn dress_humanoids(
     mut commands: Commands,
     skeletons: Query<
         (Entity, &bevy_drape::prelude::SkeletonBones),

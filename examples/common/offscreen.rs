@@ -23,14 +23,14 @@ use bevy::winit::WinitPlugin;
 const FRAME: Duration = Duration::from_nanos(1_000_000_000 / 30);
 
 /// Whether there is a display to open a window on.
-pub fn has_display() -> bool {
+pub(crate) fn has_display() -> bool {
     ["DISPLAY", "WAYLAND_DISPLAY"]
         .iter()
         .any(|v| std::env::var(v).is_ok_and(|s| !s.is_empty()))
 }
 
 /// `DefaultPlugins` with no window and no event loop.
-pub fn headless_default_plugins() -> PluginGroupBuilder {
+pub(crate) fn headless_default_plugins() -> PluginGroupBuilder {
     DefaultPlugins
         .set(WindowPlugin {
             primary_window: None,
@@ -45,7 +45,7 @@ pub fn headless_default_plugins() -> PluginGroupBuilder {
 }
 
 /// Renders every camera into an image and saves frames of it (see the module docs).
-pub struct OffscreenPlugin {
+pub(crate) struct OffscreenPlugin {
     /// Where the frames go.
     pub dir: PathBuf,
     /// Frames to save.
@@ -58,7 +58,7 @@ pub struct OffscreenPlugin {
 
 impl OffscreenPlugin {
     /// The settings from the environment, frames in `target/<name>_frames` by default.
-    pub fn from_env(name: &str) -> Self {
+    pub(crate) fn from_env(name: &str) -> Self {
         let number = |var: &str, default: u32| {
             std::env::var(var)
                 .ok()

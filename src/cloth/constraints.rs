@@ -90,9 +90,10 @@ pub struct Tether {
     pub length: f32,
 }
 
+#[cfg(test)]
 /// Projects the unilateral tether constraint `|x_p - x_anchor| <= length` (stiffness 1).
 #[inline(always)]
-pub fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
+pub(crate) fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
     let p = tether.particle as usize;
     // A particle held in place for now (grabbed) is not pulled back.
     if w[p] == 0.0 {
@@ -111,7 +112,7 @@ pub fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
 /// masses (stiffness 1): a long-range inextensibility limit between two free particles, which
 /// keeps momentum.
 #[inline(always)]
-pub fn project_mutual_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
+pub(crate) fn project_mutual_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
     let (p, a) = (tether.particle as usize, tether.anchor as usize);
     let wsum = w[p] + w[a];
     if wsum <= 0.0 {
@@ -131,7 +132,7 @@ pub fn project_mutual_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
 /// shared edge `x0`-`x1`, in (-pi, pi]: 0 when flat, positive when the triangles fold toward
 /// their front faces. `None` if a triangle is degenerate.
 #[inline(always)]
-pub fn dihedral_angle(x0: Vec3A, x1: Vec3A, x2: Vec3A, x3: Vec3A) -> Option<f32> {
+pub(crate) fn dihedral_angle(x0: Vec3A, x1: Vec3A, x2: Vec3A, x3: Vec3A) -> Option<f32> {
     dihedral_angle_and_gradients(x0, x1, x2, x3).map(|(theta, _)| theta)
 }
 
@@ -154,7 +155,7 @@ pub fn dihedral_angle(x0: Vec3A, x1: Vec3A, x2: Vec3A, x3: Vec3A) -> Option<f32>
 /// torque). The atan2 form has no singularity at the flat state, unlike the `acos(n1 . n2)`
 /// form of Mueller et al. 2006, whose gradient is undefined there.
 #[inline(always)]
-pub fn dihedral_angle_and_gradients(
+pub(crate) fn dihedral_angle_and_gradients(
     x0: Vec3A,
     x1: Vec3A,
     x2: Vec3A,
@@ -186,7 +187,7 @@ pub fn dihedral_angle_and_gradients(
 /// `atan2(y, x)` within 2e-5 rad, about four times faster than the libm call: octant
 /// reduction to `z` in [0, 1] and an odd degree-11 polynomial for `atan(z)`.
 #[inline(always)]
-pub fn fast_atan2(y: f32, x: f32) -> f32 {
+pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let (ax, ay) = (x.abs(), y.abs());
     let (num, den) = if ay > ax { (ax, ay) } else { (ay, ax) };
@@ -225,7 +226,7 @@ fn wrap_angle(a: f32) -> f32 {
 /// Projects the dihedral bending constraint `C = theta - rest_angle` of the bending pair
 /// `particles` (see [`dihedral_angle_and_gradients`]).
 #[inline(always)]
-pub fn project_bending(
+pub(crate) fn project_bending(
     x: &mut [Vec3A],
     w: &[f32],
     particles: [u32; 4],

@@ -19,7 +19,7 @@
 use bevy::math::{Mat3A, Vec3A, Vec3Swizzles};
 
 /// Multiplies every free particle's velocity by `1 - k`.
-pub fn damp_plain(v: &mut [Vec3A], inverse_masses: &[f32], k: f32) {
+pub(crate) fn damp_plain(v: &mut [Vec3A], inverse_masses: &[f32], k: f32) {
     let factor = 1.0 - k;
     for (v, &w) in v.iter_mut().zip(inverse_masses) {
         if w > 0.0 {
@@ -29,17 +29,9 @@ pub fn damp_plain(v: &mut [Vec3A], inverse_masses: &[f32], k: f32) {
 }
 
 /// Removes the fraction `k` of every free particle's velocity relative to the rigid motion
-/// that best fits all of them (see the module docs).
-pub fn damp_rigid(x: &[Vec3A], v: &mut [Vec3A], inverse_masses: &[f32], k: f32) {
-    let Some(motion) = RigidMotion::fit(x, v, inverse_masses) else {
-        return;
-    };
-    apply_rigid(&motion, x, v, inverse_masses, k);
-}
-
-/// [`damp_rigid`] with the particles' masses instead of their inverses (0 for particles
-/// that do not count, as pinned ones): no division per particle.
-pub fn damp_rigid_masses(x: &[Vec3A], v: &mut [Vec3A], masses: &[f32], k: f32) {
+/// that best fits all of them (see the module docs). Takes the particles' masses (0 for
+/// particles that do not count, as pinned ones): no division per particle.
+pub(crate) fn damp_rigid(x: &[Vec3A], v: &mut [Vec3A], masses: &[f32], k: f32) {
     let Some(motion) = RigidMotion::fit_masses(x, v, masses.iter().copied()) else {
         return;
     };
@@ -79,7 +71,7 @@ impl RigidMotion {
     /// One pass: the sums are taken about the first free particle's position and velocity
     /// (so that they stay of the cloth's own size in `f32`), then shifted to the centre of
     /// mass: `L = sum m r x u - M c x v_c`, `sum m (r - c)(r - c)^T = sum m r r^T - M c c^T`.
-    pub fn fit(x: &[Vec3A], v: &[Vec3A], inverse_masses: &[f32]) -> Option<Self> {
+    pub(crate) fn fit(x: &[Vec3A], v: &[Vec3A], inverse_masses: &[f32]) -> Option<Self> {
         Self::fit_masses(
             x,
             v,
@@ -90,7 +82,7 @@ impl RigidMotion {
     }
 
     /// [`RigidMotion::fit`] with the particles' masses (0 for particles that do not count).
-    pub fn fit_masses(
+    pub(crate) fn fit_masses(
         x: &[Vec3A],
         v: &[Vec3A],
         masses: impl Iterator<Item = f32> + Clone,

@@ -54,7 +54,7 @@ const GREY: [f32; 4] = [0.6, 0.6, 0.6, 1.0];
 const RED: [f32; 4] = [0.95, 0.15, 0.1, 1.0];
 
 /// Fills `out` with one colour per particle of `sim` for `mode` (empty for `Off`).
-pub fn debug_colors(sim: &ClothSim, mode: DebugColorMode, out: &mut Vec<[f32; 4]>) {
+pub(crate) fn debug_colors(sim: &ClothSim, mode: DebugColorMode, out: &mut Vec<[f32; 4]>) {
     out.clear();
     let state = sim.state();
     let n = state.len();

@@ -36,7 +36,7 @@ pub struct IsometricPair {
 }
 
 /// Rest dihedral angles below this (radians) count as flat.
-pub const FLAT_ANGLE: f32 = 1e-3;
+pub(crate) const FLAT_ANGLE: f32 = 1e-3;
 
 fn cot(a: Vec3, b: Vec3) -> f32 {
     a.dot(b) / a.cross(b).length().max(f32::MIN_POSITIVE)
@@ -102,7 +102,7 @@ impl IsometricPair {
 /// they are computed once ([`PreparedIsometric::prepare`]) and a projection is twelve
 /// multiply-adds: no division and no multiplier to store.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct PreparedIsometric {
+pub(crate) struct PreparedIsometric {
     pairs: Vec<PreparedPair>,
     /// One more than the largest particle index of `pairs`.
     bound: usize,
@@ -121,7 +121,7 @@ impl PreparedIsometric {
     /// compliance `alpha_tilde` (each pair's is `alpha_tilde` times its `compliance_scale^2`).
     /// Pairs with no free particle (they would move nothing), that name a particle twice,
     /// or that name a particle `w` does not hold, are left out.
-    pub fn prepare(&mut self, pairs: &[IsometricPair], w: &[f32], alpha_tilde: f32) {
+    pub(crate) fn prepare(&mut self, pairs: &[IsometricPair], w: &[f32], alpha_tilde: f32) {
         self.pairs.clear();
         self.bound = 0;
         for pair in pairs {
@@ -155,7 +155,7 @@ impl PreparedIsometric {
 
     /// Projects every pair once, in order, from a zero multiplier. Does nothing if `x` does
     /// not hold every particle the pairs name.
-    pub fn project(&self, x: &mut [Vec3A]) {
+    pub(crate) fn project(&self, x: &mut [Vec3A]) {
         if x.len() < self.bound {
             return;
         }
@@ -178,11 +178,12 @@ impl PreparedIsometric {
     }
 }
 
+#[cfg(test)]
 /// Projects an isometric pair: `C = sum_i K_i x_i` towards zero with the time-step-scaled
 /// compliance `alpha_tilde` (already multiplied by the pair's `compliance_scale^2`), the
 /// accumulated multiplier `lambda` updated.
 #[inline(always)]
-pub fn project_isometric(
+pub(crate) fn project_isometric(
     x: &mut [Vec3A],
     w: &[f32],
     pair: &IsometricPair,

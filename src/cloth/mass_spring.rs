@@ -49,10 +49,10 @@ use super::model::{ClothModel, Edge, EdgeKind};
 
 /// The fraction of the stable step [`SpringSet::stable_step`] that automatic substeps stay
 /// below.
-pub const AUTO_SUBSTEP_SAFETY: f32 = 0.9;
+pub(crate) const AUTO_SUBSTEP_SAFETY: f32 = 0.9;
 
 /// The most substeps automatic substepping chooses per fixed step.
-pub const MAX_AUTO_SUBSTEPS: u32 = 4096;
+pub(crate) const MAX_AUTO_SUBSTEPS: u32 = 4096;
 
 /// Stiffness and damping of one family of springs.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -362,7 +362,7 @@ impl SpringSet {
 
 /// `h_max = (sqrt(gamma^2 + 4 omega^2) - gamma) / omega^2`: the largest symplectic Euler step
 /// that keeps a mode of frequency `omega` (rad/s) and damping rate `gamma` (1/s) bounded.
-pub fn stable_step(omega: f32, gamma: f32) -> f32 {
+pub(crate) fn stable_step(omega: f32, gamma: f32) -> f32 {
     if omega <= 0.0 {
         return if gamma > 0.0 {
             2.0 / gamma
@@ -375,7 +375,7 @@ pub fn stable_step(omega: f32, gamma: f32) -> f32 {
 
 /// The fewest substeps of `dt` that keep each below `AUTO_SUBSTEP_SAFETY * h_max`, at least
 /// `minimum`, at most [`MAX_AUTO_SUBSTEPS`].
-pub fn auto_substeps(dt: f32, h_max: f32, minimum: u32) -> u32 {
+pub(crate) fn auto_substeps(dt: f32, h_max: f32, minimum: u32) -> u32 {
     let needed = (dt / (AUTO_SUBSTEP_SAFETY * h_max)).ceil();
     if needed.is_finite() {
         (needed as u32).clamp(minimum.max(1), MAX_AUTO_SUBSTEPS.max(minimum))

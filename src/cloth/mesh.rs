@@ -49,7 +49,11 @@ pub fn grid_mesh_from(grid: &GridMesh) -> Mesh {
 
 /// Area-weighted vertex normals of `triangles` over `positions`, written into `normals`
 /// (resized to match). Vertices in no triangle get +Y.
-pub fn compute_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]], normals: &mut Vec<Vec3>) {
+pub(crate) fn compute_normals(
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    normals: &mut Vec<Vec3>,
+) {
     normals.clear();
     normals.resize(positions.len(), Vec3::ZERO);
     for &[a, b, c] in triangles {

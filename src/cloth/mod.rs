@@ -1,32 +1,51 @@
 //! The cloth core: model, state, constraints and the XPBD step, free of ECS types, and the
 //! Bevy plugin that drives it ([`plugin`]).
 
-pub mod batch;
-pub mod constraints;
-pub mod damping;
-pub mod debug_colors;
-pub mod garment;
-pub mod isometric_bending;
-pub mod mass_spring;
+// The kernels `internals` exposes are reached from outside only with that feature.
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod batch;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod constraints;
+pub(crate) mod damping;
+pub(crate) mod debug_colors;
+pub(crate) mod garment;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod isometric_bending;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod mass_spring;
 pub mod mesh;
-pub mod model;
-pub mod ordering;
+pub(crate) mod model;
+pub(crate) mod ordering;
 pub mod plugin;
-pub mod self_collision;
-pub mod settings;
-pub mod sim;
-pub mod state;
-pub mod stretch_limits;
-pub mod volume;
-pub mod weld;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod self_collision;
+pub(crate) mod settings;
+pub(crate) mod sim;
+pub(crate) mod state;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod stretch_limits;
+pub(crate) mod volume;
+pub(crate) mod weld;
 
-pub use constraints::Tether;
+pub use damping::RigidMotion;
+pub use debug_colors::DebugColorMode;
 pub use garment::{PonchoDesc, to_obj};
-pub use mass_spring::{SpringConstants, SpringSet, SpringSettings};
-pub use model::{BendingPair, ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
-pub use self_collision::{SelfCollision, SelfContactPair};
+pub use mass_spring::{SpringConstants, SpringSettings};
+pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use settings::{AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
 pub use sim::{ClothSim, Divergence, Pin, StrainStats};
 pub use state::ClothState;
-pub use volume::{VolumeConstraint, VolumeSettings};
+pub use volume::VolumeSettings;
 pub use weld::{Welded, weld};
+
+/// The solver's kernels, for the crate's own benches and measuring harness (feature
+/// `internals`); not part of the API a game uses, and free to change.
+#[cfg(feature = "internals")]
+pub mod internals {
+    pub use super::batch::PairBatches;
+    pub use super::constraints::{Projection, project_distance};
+    pub use super::isometric_bending::IsometricPair;
+    pub use super::mass_spring::SpringSet;
+    pub use super::self_collision::SelfCollision;
+    pub use super::stretch_limits::straight_line_limits;
+}

@@ -420,29 +420,9 @@ impl ClothModel {
     }
 
     /// Changes the areal density (kg/m^2); masses follow.
-    pub fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
+    pub(crate) fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
         check_density(density)?;
         self.density = density;
-        Ok(())
-    }
-
-    /// Adds `mass` kg to particle `i`.
-    pub fn add_point_mass(&mut self, i: u32, mass: f32) -> Result<(), ClothError> {
-        let vertex_count = self.particle_count();
-        let slot = self
-            .point_masses
-            .get_mut(i as usize)
-            .ok_or(ClothError::VertexOutOfRange {
-                vertex: i,
-                vertex_count,
-            })?;
-        if !(mass.is_finite() && *slot + mass >= 0.0) {
-            return Err(ClothError::InvalidMass {
-                particle: i as usize,
-                mass,
-            });
-        }
-        *slot += mass;
         Ok(())
     }
 }

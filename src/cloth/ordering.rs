@@ -10,7 +10,7 @@
 
 /// A permutation of `items` (each the particles one constraint touches) that groups them by
 /// greedy colour, keeping the original order within a colour.
-pub fn colour_order<const K: usize>(items: &[[u32; K]], particle_count: usize) -> Vec<u32> {
+pub(crate) fn colour_order<const K: usize>(items: &[[u32; K]], particle_count: usize) -> Vec<u32> {
     let mut used = vec![0u64; particle_count];
     let mut colours = Vec::with_capacity(items.len());
     for item in items {
@@ -27,7 +27,7 @@ pub fn colour_order<const K: usize>(items: &[[u32; K]], particle_count: usize) -
 }
 
 /// Reorders `values` by `order` (from [`colour_order`]).
-pub fn apply_order<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
+pub(crate) fn apply_order<T: Copy>(values: &mut Vec<T>, order: &[u32]) {
     let reordered: Vec<T> = order.iter().map(|&i| values[i as usize]).collect();
     *values = reordered;
 }

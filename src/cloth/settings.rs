@@ -21,7 +21,7 @@ pub enum SolverMethod {
         stiffness: f32,
     },
     /// Mass-spring cloth (structural, shear and bend springs, see
-    /// [`crate::cloth::mass_spring`]) integrated with symplectic Euler: cheap per step, but
+    /// `cloth/mass_spring.rs`) integrated with symplectic Euler: cheap per step, but
     /// stable only below a step set by the stiffest spring and the lightest particle. Uses
     /// [`SolverSettings::springs`]; `iterations`, compliances and long-range attachments are
     /// ignored.
@@ -44,7 +44,7 @@ impl SolverMethod {
     }
 
     /// Whether the method projects constraints (everything but [`SolverMethod::MassSpring`]).
-    pub fn uses_constraints(&self) -> bool {
+    pub(crate) fn uses_constraints(&self) -> bool {
         !matches!(self, SolverMethod::MassSpring)
     }
 }
@@ -72,7 +72,7 @@ impl Default for DivergenceBounds {
     }
 }
 
-/// How velocities are damped (see [`crate::cloth::damping`]).
+/// How velocities are damped (see `cloth/damping.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Reflect)]
 pub enum DampingMode {
     /// Damps only the motion that is not rigid (Mueller et al. 2006, section 3.5): a falling or
@@ -117,14 +117,13 @@ pub struct SolverSettings {
     /// Long-range constraints that keep an inextensible cloth from stretching at a small
     /// substep count: tethers from every free particle to its nearest pinned particles (Kim,
     /// Chentanez and Mueller 2012) and stretch limits along the straight lines of the rest
-    /// shape ([`crate::cloth::stretch_limits`]), and, on a cloth with colliders, tethers from
-    /// every free particle to the nearest particle a collider holds (rebuilt every step; see
-    /// [`crate::cloth::ClothSim::contact_tethers`]). All only refuse lengthening beyond the
+    /// shape (`cloth/stretch_limits.rs`), and, on a cloth with colliders, tethers from
+    /// every free particle to the nearest particle a collider holds (rebuilt every step). All only refuse lengthening beyond the
     /// rest shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). Default:
     /// `true`.
     pub long_range_attachments: bool,
     /// Bend pairs whose rest shape is flat with the isometric model
-    /// ([`crate::cloth::isometric_bending`]), calibrated to the same stiffness as the
+    /// (`cloth/isometric_bending.rs`), calibrated to the same stiffness as the
     /// dihedral constraint and about four times cheaper; curved pairs keep the dihedral
     /// constraint. Default: `true`.
     pub isometric_bending: bool,
@@ -132,14 +131,14 @@ pub struct SolverSettings {
     pub springs: SpringSettings,
     /// For [`SolverMethod::MassSpring`] and [`SolverMethod::Hybrid`]: raise the substep count
     /// above `substeps` as far as the explicit stability bound needs
-    /// ([`crate::cloth::mass_spring`]). Default: `false`.
+    /// (`cloth/mass_spring.rs`). Default: `false`.
     pub auto_substeps: bool,
     /// Keep particles of the cloth that share no edge at least the mean structural rest length
-    /// apart ([`crate::cloth::self_collision`]), so the cloth does not pass through itself.
+    /// apart (`cloth/self_collision.rs`), so the cloth does not pass through itself.
     /// Default: `false`.
     pub self_collision: bool,
     /// Hold the volume a closed cloth encloses (a balloon) at `pressure` times its rest
-    /// volume ([`crate::cloth::volume`]; XPBD, PBD and hybrid). An open cloth asked for it is
+    /// volume (`cloth/volume.rs`; XPBD, PBD and hybrid). An open cloth asked for it is
     /// stepped without it and reports [`crate::cloth::ClothSim::volume_error`]. Default:
     /// `None`.
     pub volume: Option<VolumeSettings>,

@@ -21,7 +21,7 @@ pub struct ClothState {
 
 impl ClothState {
     /// The model's rest shape, at rest, inverse masses from the model's masses.
-    pub fn at_rest(model: &ClothModel) -> Self {
+    pub(crate) fn at_rest(model: &ClothModel) -> Self {
         let positions: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
         let inverse_masses = (0..model.particle_count())
             .map(|i| inverse_mass(model.mass(i)))
@@ -46,6 +46,6 @@ impl ClothState {
 }
 
 /// `1 / mass`, or 0 (held in place) for a particle without mass.
-pub fn inverse_mass(mass: f32) -> f32 {
+pub(crate) fn inverse_mass(mass: f32) -> f32 {
     if mass > 0.0 { 1.0 / mass } else { 0.0 }
 }

@@ -22,12 +22,12 @@
 //! that points the same way within [`STRAIGHT_COS`]. On a curved or irregular mesh there are
 //! few such runs, and few limits.
 
-use bevy::math::{Vec3, Vec3A};
+use bevy::math::Vec3;
 
 use super::model::Edge;
 
 /// Two edges continue a straight line when the cosine of the angle between them is above this.
-pub const STRAIGHT_COS: f32 = 0.9999;
+pub(crate) const STRAIGHT_COS: f32 = 0.9999;
 
 /// `|x_a - x_b| <= length`, both particles weighted by their inverse masses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,9 +38,10 @@ pub struct StretchLimit {
     pub length: f32,
 }
 
+#[cfg(test)]
 /// Projects a stretch limit (stiffness 1; nothing happens while the pair is not stretched).
 #[inline(always)]
-pub fn project_stretch_limit(x: &mut [Vec3A], w: &[f32], limit: &StretchLimit) {
+pub(crate) fn project_stretch_limit(x: &mut [bevy::math::Vec3A], w: &[f32], limit: &StretchLimit) {
     let [a, b] = limit.particles.map(|i| i as usize);
     let d = x[a] - x[b];
     let len_sq = d.length_squared();
@@ -173,6 +174,7 @@ pub fn straight_line_limits(rest: &[Vec3], edges: &[Edge]) -> Vec<StretchLimit> 
 mod tests {
     use super::*;
     use crate::cloth::{ClothModel, GridDesc};
+    use bevy::math::Vec3A;
 
     #[test]
     fn a_grid_gets_limits_along_rows_columns_and_diagonals_with_exact_lengths() {

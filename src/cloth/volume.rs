@@ -34,7 +34,7 @@ impl Default for VolumeSettings {
 
 /// The volume constraint of one closed cloth.
 #[derive(Clone, Debug)]
-pub struct VolumeConstraint {
+pub(crate) struct VolumeConstraint {
     triangles: Vec<[u32; 3]>,
     rest_volume: f32,
     gradients: Vec<Vec3A>,
@@ -43,7 +43,7 @@ pub struct VolumeConstraint {
 
 /// Whether `triangles` form a closed, consistently oriented surface: every edge is shared by
 /// exactly two triangles that run along it in opposite directions.
-pub fn check_closed(triangles: &[[u32; 3]]) -> Result<(), ClothError> {
+pub(crate) fn check_closed(triangles: &[[u32; 3]]) -> Result<(), ClothError> {
     let mut directed: Vec<(u32, u32)> = triangles
         .iter()
         .flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)])
@@ -69,7 +69,7 @@ pub fn check_closed(triangles: &[[u32; 3]]) -> Result<(), ClothError> {
 
 /// The volume `triangles` enclose over `x` (positive for triangles counter-clockwise seen
 /// from outside), m^3.
-pub fn enclosed_volume(x: &[Vec3A], triangles: &[[u32; 3]]) -> f32 {
+pub(crate) fn enclosed_volume(x: &[Vec3A], triangles: &[[u32; 3]]) -> f32 {
     let Some(&c) = triangles.first().map(|t| &x[t[0] as usize]) else {
         return 0.0;
     };
@@ -86,7 +86,7 @@ pub fn enclosed_volume(x: &[Vec3A], triangles: &[[u32; 3]]) -> f32 {
 impl VolumeConstraint {
     /// The constraint of `model`'s surface at its rest shape, or
     /// [`ClothError::OpenSurface`] if the surface is not closed.
-    pub fn new(model: &ClothModel) -> Result<Self, ClothError> {
+    pub(crate) fn new(model: &ClothModel) -> Result<Self, ClothError> {
         if model.triangles.is_empty() {
             return Err(ClothError::NoTriangles);
         }
@@ -110,22 +110,22 @@ impl VolumeConstraint {
     }
 
     /// The rest volume, m^3.
-    pub fn rest_volume(&self) -> f32 {
+    pub(crate) fn rest_volume(&self) -> f32 {
         self.rest_volume
     }
 
     /// The enclosed volume of `x`, m^3.
-    pub fn volume(&self, x: &[Vec3A]) -> f32 {
+    pub(crate) fn volume(&self, x: &[Vec3A]) -> f32 {
         enclosed_volume(x, &self.triangles)
     }
 
     /// Starts a substep: the multiplier goes back to zero.
-    pub fn reset_multiplier(&mut self) {
+    pub(crate) fn reset_multiplier(&mut self) {
         self.lambda = 0.0;
     }
 
     /// One XPBD projection towards `pressure * rest volume` with `alpha_tilde`.
-    pub fn project(&mut self, x: &mut [Vec3A], w: &[f32], pressure: f32, alpha_tilde: f32) {
+    pub(crate) fn project(&mut self, x: &mut [Vec3A], w: &[f32], pressure: f32, alpha_tilde: f32) {
         if self.gradients.len() != x.len() || self.triangles.is_empty() {
             return;
         }

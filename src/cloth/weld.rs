@@ -95,7 +95,7 @@ pub fn weld(positions: &[Vec3], indices: &[u32], tolerance: f32) -> Welded {
 
 /// The welding tolerance for a mesh: a millionth of its bounding box's diagonal, at least
 /// 1e-7 m.
-pub fn default_tolerance(positions: &[Vec3]) -> f32 {
+pub(crate) fn default_tolerance(positions: &[Vec3]) -> f32 {
     let (lo, hi) = positions
         .iter()
         .filter(|p| p.is_finite())

@@ -43,7 +43,7 @@ const NONE: u32 = u32::MAX;
 
 /// One particle's contact in the current substep.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Contact {
+pub(crate) struct Contact {
     /// The collider's index, or `u32::MAX` for none.
     pub collider: u32,
     /// The outward surface normal at the contact (world).
@@ -66,14 +66,14 @@ impl Contact {
     };
 
     /// Whether there is a contact.
-    pub fn is_some(&self) -> bool {
+    pub(crate) fn is_some(&self) -> bool {
         self.collider != NONE
     }
 }
 
 /// Per-particle contacts and per-collider poses and bounds, reused every step.
 #[derive(Clone, Debug, Default)]
-pub struct ContactScratch {
+pub(crate) struct ContactScratch {
     contacts: Vec<Contact>,
     poses: Vec<RigidPose>,
     bounds: Vec<Option<Aabb>>,
@@ -81,12 +81,12 @@ pub struct ContactScratch {
 
 impl ContactScratch {
     /// The contacts of the last substep, one per particle.
-    pub fn contacts(&self) -> &[Contact] {
+    pub(crate) fn contacts(&self) -> &[Contact] {
         &self.contacts
     }
 
     /// Prepares a step: the colliders' swept bounds grown by their reach.
-    pub fn begin_step(&mut self, colliders: &[Collider], particles: usize, thickness: f32) {
+    pub(crate) fn begin_step(&mut self, colliders: &[Collider], particles: usize, thickness: f32) {
         self.contacts.resize(particles, Contact::EMPTY);
         self.bounds.clear();
         self.bounds.extend(
@@ -99,7 +99,7 @@ impl ContactScratch {
     }
 
     /// Prepares a substep ending a fraction `t` through the step: poses at `t`, no contacts.
-    pub fn begin_substep(&mut self, colliders: &[Collider], t: f32) {
+    pub(crate) fn begin_substep(&mut self, colliders: &[Collider], t: f32) {
         for (pose, c) in self.poses.iter_mut().zip(colliders) {
             *pose = c.pose_at(t);
         }
@@ -110,7 +110,7 @@ impl ContactScratch {
     /// `v` are the velocities the approach speed is measured from, `h_a` the external
     /// acceleration's velocity change over the substep still to come (zero if `v` has it).
     #[allow(clippy::too_many_arguments)]
-    pub fn project(
+    pub(crate) fn project(
         &mut self,
         colliders: &[Collider],
         x: &mut [Vec3A],
@@ -161,7 +161,7 @@ impl ContactScratch {
     /// (mass-spring). Then the tangential part of the particle's displacement over the
     /// substep (`x - x_prev`) becomes `h` times its new tangential velocity.
     #[allow(clippy::too_many_arguments)]
-    pub fn respond(
+    pub(crate) fn respond(
         &self,
         colliders: &[Collider],
         x: &mut [Vec3A],
@@ -203,7 +203,7 @@ impl ContactScratch {
     }
 
     /// How many particles touched a collider in the last substep.
-    pub fn count(&self) -> usize {
+    pub(crate) fn count(&self) -> usize {
         self.contacts.iter().filter(|c| c.is_some()).count()
     }
 }

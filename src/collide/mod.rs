@@ -1,15 +1,14 @@
 //! Colliders: shapes (sphere, capsule, plane, triangle mesh with a bounding-volume
 //! hierarchy), their motion over a fixed step, and particle contacts with restitution and
-//! Coulomb friction on the velocity relative to the collider ([`contact`]); the Bevy
+//! Coulomb friction on the velocity relative to the collider (`contact.rs`); the Bevy
 //! components in [`plugin`].
 
-pub mod contact;
+pub(crate) mod contact;
 pub mod motion;
 pub mod plugin;
-pub mod shapes;
-pub mod trimesh;
+pub(crate) mod shapes;
+pub(crate) mod trimesh;
 
-pub use contact::{Contact, ContactScratch};
-pub use motion::{FrameStep, FrameTracker, RigidMap, Teleport};
+pub use motion::{FrameStep, FrameTracker, Teleport};
 pub use shapes::{Collider, ContactMaterial, RigidPose, Shape};
-pub use trimesh::{Aabb, TriMesh};
+pub use trimesh::TriMesh;

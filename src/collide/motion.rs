@@ -10,11 +10,11 @@
 //! velocity is not half a step late. A pose
 //! change larger than a [`Teleport`] threshold is a jump, not motion: the step is marked
 //! [`FrameStep::jumped`] and keeps the velocity of the step before (the motion goes on where
-//! the frame reappears); a collider that jumped starts the step where it ends
-//! ([`FrameStep::sweep_start`]), so nothing is swept through the space between.
+//! the frame reappears); a collider that jumped starts the step where it ends, so nothing is
+//! swept through the space between.
 //!
-//! [`FrameStep::carry`] moves points, directions and poses with a fraction of the step's
-//! motion: how a cloth is carried along by the entity it follows (see
+//! A step also carries points, directions and poses with a fraction of its motion: how a
+//! cloth is carried along by the entity it follows (see
 //! [`ClothSim::follow_frame`](crate::cloth::ClothSim::follow_frame)).
 
 use bevy::math::{Quat, Vec3A};
@@ -45,7 +45,7 @@ impl Default for Teleport {
 
 impl Teleport {
     /// Whether going from `start` to `end` in one step is a jump.
-    pub fn is_jump(&self, start: &RigidPose, end: &RigidPose) -> bool {
+    pub(crate) fn is_jump(&self, start: &RigidPose, end: &RigidPose) -> bool {
         let turn = (end.rotation * start.rotation.inverse()).normalize();
         let angle = 2.0 * turn.w.abs().min(1.0).acos();
         start.translation.distance(end.translation) > self.distance || angle > self.angle
@@ -70,7 +70,7 @@ pub struct FrameStep {
 
 impl FrameStep {
     /// A frame at rest at `pose`.
-    pub fn at_rest(pose: RigidPose) -> Self {
+    pub(crate) fn at_rest(pose: RigidPose) -> Self {
         Self {
             start: pose,
             end: pose,
@@ -82,7 +82,7 @@ impl FrameStep {
 
     /// Where something moving with the frame starts its sweep through the step: `start`, or
     /// `end` after a jump.
-    pub fn sweep_start(&self) -> RigidPose {
+    pub(crate) fn sweep_start(&self) -> RigidPose {
         if self.jumped { self.end } else { self.start }
     }
 
@@ -95,7 +95,7 @@ impl FrameStep {
     /// rotation is `fraction` of the turn, about the frame's origin at the start, and the
     /// origin goes `fraction` of the way to its end. `1` maps `start` onto `end`, `0` is the
     /// identity.
-    pub fn carry(&self, fraction: f32) -> RigidMap {
+    pub(crate) fn carry(&self, fraction: f32) -> RigidMap {
         let turn = (self.end.rotation * self.start.rotation.inverse()).normalize();
         let rotation = Quat::IDENTITY.slerp(turn, fraction).normalize();
         RigidMap {
@@ -108,7 +108,7 @@ impl FrameStep {
 
 /// A rigid map of the world: `p -> rotation (p - pivot) + to`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RigidMap {
+pub(crate) struct RigidMap {
     /// The rotation.
     pub rotation: Quat,
     /// The point the rotation turns about.
@@ -119,22 +119,22 @@ pub struct RigidMap {
 
 impl RigidMap {
     /// Whether the map moves nothing.
-    pub fn is_identity(&self) -> bool {
+    pub(crate) fn is_identity(&self) -> bool {
         self.rotation == Quat::IDENTITY && self.pivot == self.to
     }
 
     /// A point moved by the map.
-    pub fn point(&self, p: Vec3A) -> Vec3A {
+    pub(crate) fn point(&self, p: Vec3A) -> Vec3A {
         self.rotation * (p - self.pivot) + self.to
     }
 
     /// A direction (a velocity) turned by the map.
-    pub fn vector(&self, v: Vec3A) -> Vec3A {
+    pub(crate) fn vector(&self, v: Vec3A) -> Vec3A {
         self.rotation * v
     }
 
     /// A pose moved by the map.
-    pub fn pose(&self, pose: &RigidPose) -> RigidPose {
+    pub(crate) fn pose(&self, pose: &RigidPose) -> RigidPose {
         RigidPose {
             translation: self.point(pose.translation),
             rotation: (self.rotation * pose.rotation).normalize(),

@@ -60,7 +60,7 @@ impl RigidPose {
     }
 
     /// Whether the translation and rotation are finite and the rotation is a unit quaternion.
-    pub fn is_valid(&self) -> bool {
+    pub(crate) fn is_valid(&self) -> bool {
         self.translation.is_finite() && self.rotation.is_finite() && self.rotation.is_normalized()
     }
 }
@@ -153,7 +153,7 @@ impl Shape {
     }
 
     /// The local bounds, `None` for the (infinite) plane.
-    pub fn local_bounds(&self) -> Option<Aabb> {
+    pub(crate) fn local_bounds(&self) -> Option<Aabb> {
         match self {
             Shape::Sphere { radius } => Some(Aabb {
                 min: Vec3A::splat(-radius),
@@ -292,7 +292,7 @@ impl Collider {
 
     /// The pose a fraction `t` in [0, 1] through the step.
     #[inline]
-    pub fn pose_at(&self, t: f32) -> RigidPose {
+    pub(crate) fn pose_at(&self, t: f32) -> RigidPose {
         if t >= 1.0 {
             self.end
         } else {
@@ -308,7 +308,7 @@ impl Collider {
     }
 
     /// World bounds over the whole step, grown by `reach`; `None` for a plane.
-    pub fn swept_bounds(&self, reach: f32) -> Option<Aabb> {
+    pub(crate) fn swept_bounds(&self, reach: f32) -> Option<Aabb> {
         let local = self.shape.local_bounds()?;
         // The bounding sphere of the local box, at both ends of the step: rotation-proof.
         let centre = (local.min + local.max) * 0.5;

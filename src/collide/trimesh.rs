@@ -7,7 +7,7 @@ use crate::error::ColliderError;
 
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
+pub(crate) struct Aabb {
     /// Lower corner.
     pub min: Vec3A,
     /// Upper corner.
@@ -16,13 +16,13 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box (contains nothing; growing it by a point gives that point).
-    pub const EMPTY: Self = Self {
+    pub(crate) const EMPTY: Self = Self {
         min: Vec3A::splat(f32::INFINITY),
         max: Vec3A::splat(f32::NEG_INFINITY),
     };
 
     /// The box grown to contain `p`.
-    pub fn grown(self, p: Vec3A) -> Self {
+    pub(crate) fn grown(self, p: Vec3A) -> Self {
         Self {
             min: self.min.min(p),
             max: self.max.max(p),
@@ -30,30 +30,22 @@ impl Aabb {
     }
 
     /// The union of two boxes.
-    pub fn union(self, other: Self) -> Self {
+    pub(crate) fn union(self, other: Self) -> Self {
         Self {
             min: self.min.min(other.min),
             max: self.max.max(other.max),
         }
     }
 
-    /// The box grown by `d` on every side.
-    pub fn expanded(self, d: f32) -> Self {
-        Self {
-            min: self.min - Vec3A::splat(d),
-            max: self.max + Vec3A::splat(d),
-        }
-    }
-
     /// Whether `p` is inside (boundary included).
     #[inline(always)]
-    pub fn contains(&self, p: Vec3A) -> bool {
+    pub(crate) fn contains(&self, p: Vec3A) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
 
     /// Squared distance from `p` to the box (0 inside).
     #[inline(always)]
-    pub fn distance_squared(&self, p: Vec3A) -> f32 {
+    pub(crate) fn distance_squared(&self, p: Vec3A) -> f32 {
         let d = (self.min - p).max(p - self.max).max(Vec3A::ZERO);
         d.length_squared()
     }
@@ -135,18 +127,8 @@ impl TriMesh {
         Ok(mesh)
     }
 
-    /// The vertices.
-    pub fn vertices(&self) -> &[Vec3A] {
-        &self.vertices
-    }
-
-    /// The (non-degenerate) triangles.
-    pub fn triangles(&self) -> &[[u32; 3]] {
-        &self.triangles
-    }
-
     /// The bounds of the whole mesh.
-    pub fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         self.nodes[0].bounds
     }
 
@@ -260,7 +242,7 @@ impl TriMesh {
 
 /// The point of triangle `abc` closest to `p` (Ericson, Real-Time Collision Detection,
 /// section 5.1.5: the Voronoi regions of the vertices, then the edges, then the face).
-pub fn closest_point_on_triangle(p: Vec3A, a: Vec3A, b: Vec3A, c: Vec3A) -> Vec3A {
+pub(crate) fn closest_point_on_triangle(p: Vec3A, a: Vec3A, b: Vec3A, c: Vec3A) -> Vec3A {
     let ab = b - a;
     let ac = c - a;
     let ap = p - a;

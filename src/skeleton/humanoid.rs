@@ -26,24 +26,25 @@ use bevy::reflect::Reflect;
 use super::rig::{BoneDesc, Rig};
 
 /// Limb radii for collision proxies and meshes, metres.
-pub mod radius {
+pub(crate) mod radius {
     /// Upper and lower arms.
-    pub const ARM: f32 = 0.04;
+    pub(crate) const ARM: f32 = 0.04;
     /// Thighs.
-    pub const THIGH: f32 = 0.07;
+    pub(crate) const THIGH: f32 = 0.07;
     /// Shins.
-    pub const SHIN: f32 = 0.055;
+    pub(crate) const SHIN: f32 = 0.055;
     /// Torso (spine and chest).
-    pub const TORSO: f32 = 0.12;
+    pub(crate) const TORSO: f32 = 0.12;
     /// Head (a sphere).
-    pub const HEAD: f32 = 0.11;
+    pub(crate) const HEAD: f32 = 0.11;
 }
 
 /// Height of the pelvis above the soles at rest, metres.
-pub const PELVIS_HEIGHT: f32 = 0.93;
+#[cfg(test)]
+const PELVIS_HEIGHT: f32 = 0.93;
 
 /// The bone descriptions of the humanoid.
-pub fn humanoid_bones() -> Vec<BoneDesc> {
+pub(crate) fn humanoid_bones() -> Vec<BoneDesc> {
     let bone =
         |name: &str, parent: Option<&str>, offset: [f32; 3], axis: [f32; 3], limits| BoneDesc {
             name: name.into(),

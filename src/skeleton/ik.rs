@@ -370,7 +370,7 @@ pub fn solve(
 /// at its closest pose rather than sending it to another solution), and the angles move
 /// towards each new solution at most a given angle per step.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct IkTracking {
+pub(crate) struct IkTracking {
     /// The chain's angles at the last step (chain order), empty before the first.
     last: Vec<f32>,
 }
@@ -378,7 +378,7 @@ pub struct IkTracking {
 impl IkTracking {
     /// Puts the last step's angles of `chain` into `pose` (if there was a last step) and
     /// returns the settings to solve with: `settings`, without restarts once warm.
-    pub fn warm_start(
+    pub(crate) fn warm_start(
         &self,
         chain: &IkChain,
         pose: &mut Pose,
@@ -398,7 +398,7 @@ impl IkTracking {
 
     /// Moves `chain`'s angles in `pose` (a solution) to within `max_step` radians of the last
     /// step's, and keeps them for the next step.
-    pub fn follow(&mut self, chain: &IkChain, pose: &mut Pose, max_step: f32) {
+    pub(crate) fn follow(&mut self, chain: &IkChain, pose: &mut Pose, max_step: f32) {
         if self.last.len() == chain.bones.len() && max_step.is_finite() {
             let max_step = max_step.max(0.0);
             for (&b, from) in chain.bones.iter().zip(&self.last) {
@@ -412,7 +412,7 @@ impl IkTracking {
     }
 
     /// Forgets the last step (the chain changed).
-    pub fn forget(&mut self) {
+    pub(crate) fn forget(&mut self) {
         self.last.clear();
     }
 }
@@ -421,7 +421,7 @@ impl IkTracking {
 /// newest of the parabola through the last three (second order), or the last difference while
 /// there are only two.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct AngleRates {
+pub(crate) struct AngleRates {
     /// The angles of the last two steps, the last first.
     history: [Vec<f32>; 2],
     /// How many of `history` are filled in.
@@ -431,7 +431,7 @@ pub struct AngleRates {
 impl AngleRates {
     /// The rate of angle `b` if it is `angle` now, `dt` seconds after the last step; `None`
     /// with no history.
-    pub fn rate(&self, b: usize, angle: f32, dt: f32) -> Option<f32> {
+    pub(crate) fn rate(&self, b: usize, angle: f32, dt: f32) -> Option<f32> {
         let [last, before] = &self.history;
         let no_time = dt.is_nan() || dt <= 0.0;
         if no_time || self.filled == 0 || b >= last.len() {
@@ -445,7 +445,7 @@ impl AngleRates {
     }
 
     /// Remembers this step's angles.
-    pub fn push(&mut self, angles: &[f32]) {
+    pub(crate) fn push(&mut self, angles: &[f32]) {
         self.history.swap(0, 1);
         self.history[0].clear();
         self.history[0].extend_from_slice(angles);

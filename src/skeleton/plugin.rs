@@ -30,7 +30,7 @@ pub struct ClipAsset(pub ClipDesc);
 
 /// Loads `*.clip.ron` files as [`ClipAsset`]s.
 #[derive(Default, TypePath)]
-pub struct ClipLoader;
+pub(crate) struct ClipLoader;
 
 impl AssetLoader for ClipLoader {
     type Asset = ClipAsset;
@@ -56,7 +56,7 @@ impl AssetLoader for ClipLoader {
 
 /// Why a clip file failed to load.
 #[derive(Debug, thiserror::Error)]
-pub enum ClipLoadError {
+pub(crate) enum ClipLoadError {
     /// The file could not be read.
     #[error("cannot read the clip file: {0}")]
     Io(#[from] std::io::Error),

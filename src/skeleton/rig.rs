@@ -240,7 +240,7 @@ impl Rig {
     }
 
     /// The bone's rotation relative to its parent for angle `angle`.
-    pub fn local_rotation(&self, bone: usize, angle: f32) -> Quat {
+    pub(crate) fn local_rotation(&self, bone: usize, angle: f32) -> Quat {
         Quat::from_axis_angle(self.bones[bone].axis, angle)
     }
 

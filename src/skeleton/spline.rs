@@ -101,7 +101,7 @@ pub enum SplineError {
 }
 
 /// Checks key times: at least two, finite, strictly increasing, as many as `values`.
-pub fn check_times(times: &[f32], values: usize) -> Result<(), SplineError> {
+pub(crate) fn check_times(times: &[f32], values: usize) -> Result<(), SplineError> {
     if times.len() != values {
         return Err(SplineError::LengthMismatch {
             times: times.len(),

@@ -16,7 +16,7 @@ use bevy::prelude::*;
 use bevy_drape::cloth::PonchoDesc;
 use bevy_drape::cloth::mesh::grid_mesh_from;
 use bevy_drape::cloth::plugin::{Cloth, ClothBuildError, ClothSettings};
-use bevy_drape::cloth::settings::{DivergenceBounds, SolverSettings};
+use bevy_drape::cloth::{DivergenceBounds, SolverSettings};
 use bevy_drape::collide::plugin::ClothCollider;
 use bevy_drape::schedule::{DrapeSystems, DrapeTimings};
 use bevy_drape::skeleton::humanoid::humanoid;

@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use bevy::math::Vec3;
 
+use bevy_drape::cloth::internals::SelfCollision;
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SelfCollision, SolverSettings,
+    ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SolverSettings,
 };
 use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape};
 

@@ -33,10 +33,10 @@ use std::time::Instant;
 use bevy::math::Vec3;
 
 use crate::scenes::{FRAME_RATE, GRAVITY, HangingCloth, Trajectory};
-use bevy_drape::cloth::isometric_bending::IsometricPair;
+use bevy_drape::cloth::internals::{IsometricPair, SpringSet};
 use bevy_drape::cloth::{
     AdaptiveSubsteps, DampingMode, DivergenceBounds, EdgeKind, SolverMethod, SolverSettings,
-    SpringConstants, SpringSet, SpringSettings,
+    SpringConstants, SpringSettings,
 };
 use bevy_drape::skeleton::humanoid::humanoid;
 use bevy_drape::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};

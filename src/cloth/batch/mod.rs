@@ -34,15 +34,15 @@ use bevy::math::{Vec3A, Vec4};
 use super::constraints::Projection;
 
 /// Constraints per batch.
-pub const LANES: usize = 4;
+pub(crate) const LANES: usize = 4;
 
 /// How many constraints past the last one taken a batch looks at to fill its lanes.
-pub const LOOK_AHEAD: usize = 64;
+pub(crate) const LOOK_AHEAD: usize = 64;
 
 /// Batches in a row that share no particle one of them moves or reads. The sweep needs two
 /// (it overlaps a batch with the next); four leave the processor more room. Measured on S1
 /// at N = 64, 8 x 2: 4.2 ms per frame with two, 4.1 ms with four.
-pub const SEPARATION: u32 = 4;
+pub(crate) const SEPARATION: u32 = 4;
 
 /// One batch: the particles of [`LANES`] constraints, their lengths and inverse masses. A
 /// batch with fewer constraints repeats its first lane (the repeated lane computes and
@@ -63,10 +63,10 @@ pub struct Batch {
 }
 
 /// The size of one position (`Vec3A`), bytes.
-pub const POSITION_BYTES: u32 = std::mem::size_of::<Vec3A>() as u32;
+pub(crate) const POSITION_BYTES: u32 = std::mem::size_of::<Vec3A>() as u32;
 
 /// Particles a batch can name: their byte offsets fit in a `u32`.
-pub const MAX_PARTICLES: usize = (u32::MAX / POSITION_BYTES) as usize;
+pub(crate) const MAX_PARTICLES: usize = (u32::MAX / POSITION_BYTES) as usize;
 
 impl Batch {
     /// The first particle of each lane (always moved).

@@ -13,9 +13,10 @@ use super::ordering::{apply_order, colour_order};
 use super::self_collision::SelfCollision;
 use super::settings::{AdaptiveSubsteps, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
-use super::stretch_limits::{StretchLimit, straight_line_limits};
+use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
-use crate::collide::{Collider, Contact, ContactScratch, FrameStep};
+use crate::collide::contact::{Contact, ContactScratch};
+use crate::collide::{Collider, FrameStep};
 use crate::error::ClothError;
 
 mod diagnostics;
@@ -64,8 +65,8 @@ pub struct ClothSim {
     tethers: Vec<Tether>,
     /// `tethers` in batches of four.
     tether_batches: PairBatches,
-    stretch_limits: Vec<StretchLimit>,
-    /// `stretch_limits` in batches of four.
+    /// The long-range stretch limits along the straight lines of the rest shape
+    /// (`stretch_limits.rs`), in batches of four.
     limit_batches: PairBatches,
     /// Multipliers of the order-free (Jacobi) edge projection, one per edge.
     edge_lambdas: Vec<f32>,
@@ -156,7 +157,6 @@ impl ClothSim {
             }
         }
         Self {
-            stretch_limits,
             limit_batches,
             edge_lambdas: vec![0.0; model.edges.len()],
             edge_batch_lambdas: vec![Vec4::ZERO; edge_batches.len()],
@@ -263,7 +263,7 @@ impl ClothSim {
     /// is carried), `0` simulates the cloth as if it lived in the frame. Call after
     /// [`ClothSim::set_colliders`] and the pin targets, before [`ClothSim::step`].
     ///
-    /// The carried part, `s = 1 - inertia` of the step's pose change ([`FrameStep::carry`]),
+    /// The carried part, `s = 1 - inertia` of the step's pose change (see [`FrameStep`]),
     /// moves positions, previous positions and pins rigidly and turns velocities, so the
     /// state's velocities are relative to the carried motion and nothing is created or lost.
     /// The colliders are seen in the same way: their start poses are carried too and
@@ -313,7 +313,7 @@ impl ClothSim {
     }
 
     /// Every particle's collider contact in the last substep.
-    pub fn contacts(&self) -> &[Contact] {
+    pub(crate) fn contacts(&self) -> &[Contact] {
         self.contacts.contacts()
     }
 
@@ -322,13 +322,9 @@ impl ClothSim {
         self.contacts.count()
     }
 
-    /// The springs of the mass-spring and hybrid methods, once one of them has stepped (or
-    /// [`ClothSim::springs_mut`] has been called).
-    pub fn springs(&self) -> Option<&SpringSet> {
-        self.springs.as_ref().map(|s| &s.set)
-    }
-
-    /// The springs of the mass-spring and hybrid methods, built now if they are not yet.
+    /// The springs of the mass-spring and hybrid methods, built now if they are not yet
+    /// (feature `internals`).
+    #[cfg(feature = "internals")]
     pub fn springs_mut(&mut self) -> &mut SpringSet {
         &mut self.spring_scratch().set
     }
@@ -374,14 +370,10 @@ impl ClothSim {
         &self.pins
     }
 
-    /// The long-range attachments currently built.
+    /// The long-range attachments currently built (feature `internals`).
+    #[cfg(feature = "internals")]
     pub fn tethers(&self) -> &[Tether] {
         &self.tethers
-    }
-
-    /// The long-range stretch limits along the straight lines of the rest shape.
-    pub fn stretch_limits(&self) -> &[StretchLimit] {
-        &self.stretch_limits
     }
 
     /// Pins `particles` where they are now (replacing any earlier pins) and rebuilds the
@@ -526,10 +518,10 @@ impl ClothSim {
     /// 2. project, `iterations` times, in this order: stretch limits and tethers (the
     ///    long-range constraints), edges, bending pairs (first iteration only: bending is soft
     ///    and its projection costs about ten distance projections), volume, self-collision,
-    ///    colliders (planes included: see [`crate::collide::contact`]);
+    ///    colliders (planes included: see `collide/contact.rs`);
     /// 3. velocities: `v = (x - x_prev) / h + h/2 a`;
     /// 4. contacts: restitution and Coulomb friction relative to each collider's surface
-    ///    ([`crate::collide::contact`]); then damping.
+    ///    (`collide/contact.rs`); then damping.
     ///
     /// Steps 1 and 3 are symplectic Euler on the half-step velocity `(x - x_prev) / h`, started
     /// consistently (velocity Verlet), so a free particle follows `x0 + v0 t + a t^2 / 2`
@@ -711,12 +703,6 @@ impl ClothSim {
         }
     }
 
-    /// The tethers to particles held by colliders, rebuilt every step (see
-    /// [`SolverSettings::long_range_attachments`]).
-    pub fn contact_tethers(&self) -> &[Tether] {
-        &self.contact_tethers
-    }
-
     /// Finds the self-contact candidates of the coming step (building the tables the first
     /// time): pairs that may close in to the self-collision distance within `dt`.
     fn find_self_contacts(&mut self, acceleration: Vec3, dt: f32) {
@@ -736,12 +722,6 @@ impl ClothSim {
         // Two particles close in at most twice the fastest particle's travel.
         let travel = max_speed * dt + 0.5 * acceleration.length() * dt * dt;
         sc.find_pairs(x, 2.0 * travel);
-    }
-
-    /// The self-collision tables, once a step has run with
-    /// [`SolverSettings::self_collision`] on.
-    pub fn self_collision(&self) -> Option<&SelfCollision> {
-        self.self_collision.as_ref()
     }
 
     /// How many pairs of particles were held apart by self-collision in the last step's last

@@ -4,7 +4,7 @@
 use bevy::math::Vec3A;
 
 use crate::cloth::constraints::{Projection, project_distance};
-use crate::cloth::damping::{damp_plain, damp_rigid_masses};
+use crate::cloth::damping::{damp_plain, damp_rigid};
 use crate::cloth::model::Edge;
 use crate::cloth::settings::{DampingMode, SolverSettings};
 
@@ -140,7 +140,7 @@ pub(super) fn damp(
     if k > 0.0 {
         match settings.damping_mode {
             DampingMode::Plain => damp_plain(v, w, k),
-            DampingMode::Rigid => damp_rigid_masses(x, v, masses, k),
+            DampingMode::Rigid => damp_rigid(x, v, masses, k),
         }
     }
 }

@@ -16,7 +16,7 @@ impl ClothSim {
     /// 1. symplectic Euler: `v += h (a + f / m)`, then `x += h v` (free particles); pins move
     ///    to their interpolated targets with the velocity of their straight path;
     /// 2. contacts with the colliders (planes included), found at the end of the substep
-    ///    ([`crate::collide::contact`]);
+    ///    (`collide/contact.rs`);
     /// 3. damping ([`SolverSettings::damping`], on top of the springs' own).
     pub(super) fn step_mass_spring(
         &mut self,
