@@ -1,6 +1,6 @@
 //! [`ClothSim`]: one cloth's model, state, pins and solver scratch, and its fixed step. The
-//! substep loops are in `xpbd.rs` (XPBD and PBD) and `springs.rs` (mass-spring, hybrid), made
-//! of the passes in `passes.rs`; what can be read off a cloth is in `diagnostics.rs`.
+//! substep pipeline every solver method runs through is in `step.rs`, made of the passes in
+//! `passes.rs`; what can be read off a cloth is in `diagnostics.rs`.
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
@@ -21,8 +21,7 @@ use crate::error::ClothError;
 
 mod diagnostics;
 mod passes;
-mod springs;
-mod xpbd;
+mod step;
 
 pub use diagnostics::{Divergence, StrainStats};
 use passes::JacobiScratch;
@@ -506,26 +505,15 @@ impl ClothSim {
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
     /// (gravity plus any external acceleration) with `settings.method`, in
     /// `settings.substeps` substeps (more with `settings.auto_substeps` for the spring
-    /// methods; as many as [`SolverSettings::adaptive`] needs if set).
+    /// methods; as many as [`SolverSettings::adaptive`] needs if set), each of them through
+    /// one pipeline (`sim/step.rs`): predict, project `settings.iterations` times (long-range
+    /// constraints, edges, volume, bending, self-collision, colliders: each method projects
+    /// its share of them), velocities, contact response, damping.
     ///
-    /// [`SolverMethod::MassSpring`]: spring forces at each substep's start, symplectic Euler,
-    /// contacts and damping; [`SolverMethod::Hybrid`]: the shear and bend springs' forces in
-    /// the prediction, the structural edges projected in XPBD form `iterations` times (see
-    /// `sim/springs.rs`). XPBD and PBD take
-    /// `settings.iterations` constraint iterations per substep; each substep of length `h`:
-    /// 1. predict: `x_prev = x`, `x += h v + h^2/2 a` for free particles; pins move to their
-    ///    interpolated targets;
-    /// 2. project, `iterations` times, in this order: stretch limits and tethers (the
-    ///    long-range constraints), edges, bending pairs (first iteration only: bending is soft
-    ///    and its projection costs about ten distance projections), volume, self-collision,
-    ///    colliders (planes included: see `collide/contact.rs`);
-    /// 3. velocities: `v = (x - x_prev) / h + h/2 a`;
-    /// 4. contacts: restitution and Coulomb friction relative to each collider's surface
-    ///    (`collide/contact.rs`); then damping.
-    ///
-    /// Steps 1 and 3 are symplectic Euler on the half-step velocity `(x - x_prev) / h`, started
-    /// consistently (velocity Verlet), so a free particle follows `x0 + v0 t + a t^2 / 2`
-    /// exactly, whatever the step.
+    /// For XPBD and PBD, prediction and velocities are symplectic Euler on the half-step
+    /// velocity `(x - x_prev) / h`, started consistently (velocity Verlet), so a free particle
+    /// follows `x0 + v0 t + a t^2 / 2` exactly, whatever the step; mass-spring and the hybrid
+    /// integrate the spring forces with symplectic Euler.
     pub fn step(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
         if !(dt > 0.0 && dt.is_finite()) {
             return;
@@ -544,7 +532,7 @@ impl ClothSim {
             .filter(|_| settings.method != SolverMethod::MassSpring)
         {
             Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt),
-            None => self.step_method(settings, acceleration, dt),
+            None => self.step_substeps(settings, acceleration, dt),
         }
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
@@ -566,16 +554,6 @@ impl ClothSim {
             self.free_masses
                 .extend(w.iter().map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 }));
             self.bend_alpha_prepared = f32::NAN.to_bits();
-        }
-    }
-
-    fn step_method(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
-        match settings.method {
-            SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
-                self.step_constraints(settings, acceleration, dt)
-            }
-            SolverMethod::MassSpring => self.step_mass_spring(settings, acceleration, dt),
-            SolverMethod::Hybrid => self.step_hybrid(settings, acceleration, dt),
         }
     }
 
@@ -604,7 +582,7 @@ impl ClothSim {
         self.adaptive_backup.clone_from(&self.state);
         let mut run = 0;
         loop {
-            self.step_method(&chosen, acceleration, dt);
+            self.step_substeps(&chosen, acceleration, dt);
             run += chosen.substeps;
             let strain = self.strain().max;
             let next = budget.next(chosen.substeps, strain, &mut self.adaptive_calm);

@@ -1,0 +1,297 @@
+//! The substep pipeline of [`ClothSim::step`], one sequence for every solver method. Each
+//! substep of length `h`:
+//!
+//! 1. predict: XPBD and PBD `x += h v + h^2/2 a` (velocity Verlet); the spring methods take
+//!    the spring forces `f` at the substep's start, `v += h (a + f / m)`, `x += h v`
+//!    (symplectic Euler; the hybrid's springs are the shear and bend ones only). Pins move to
+//!    their interpolated targets.
+//! 2. project, `iterations` times (once for mass-spring), in this order: the long-range
+//!    constraints (stretch limits and tethers; not for mass-spring), edges (XPBD and PBD all
+//!    of them, batched, or Jacobi for a closed cloth; the hybrid its structural edges;
+//!    mass-spring none: its edges are springs), volume, bending pairs (XPBD and PBD, first
+//!    iteration only: bending is soft and its projection costs about ten distance
+//!    projections), self-collision, colliders (planes included: see `collide/contact.rs`).
+//! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
+//!    `v = (x - x_prev) / h`; mass-spring keeps the integrated ones (its self-collision and
+//!    contacts correct them directly).
+//! 4. contacts: restitution and Coulomb friction relative to each collider's surface
+//!    (`collide/contact.rs`); then damping.
+
+use bevy::math::{Vec3, Vec3A, Vec4};
+
+use super::ClothSim;
+use super::passes::{damp, project_edges, project_edges_jacobi};
+use crate::cloth::constraints::{Projection, project_bending, project_mutual_tether};
+use crate::cloth::mass_spring::auto_substeps;
+use crate::cloth::settings::{SolverMethod, SolverSettings};
+use crate::cloth::state::ClothState;
+
+/// What a solver method projects, per substep of length `h`.
+struct Projections {
+    /// The edges' distance projection (none for mass-spring, whose edges are springs).
+    stretch: Option<Projection>,
+    /// The dihedral bending projection (XPBD and PBD; the spring methods bend with springs).
+    bend: Option<Projection>,
+    /// The time-step-scaled compliance of the isometric bending pairs, if they are used.
+    isometric: Option<f32>,
+    /// The volume constraint's time-step-scaled compliance.
+    volume_alpha: f32,
+}
+
+impl Projections {
+    fn of(settings: &SolverSettings, h: f32) -> Self {
+        let xpbd = |compliance: f32| Projection::Xpbd {
+            alpha_tilde: compliance / (h * h),
+        };
+        let volume_alpha = settings.volume.map_or(0.0, |v| v.compliance / (h * h));
+        let (stretch, bend, volume_alpha) = match settings.method {
+            SolverMethod::Xpbd => (
+                Some(xpbd(settings.stretch_compliance)),
+                Some(xpbd(settings.bend_compliance)),
+                volume_alpha,
+            ),
+            SolverMethod::Pbd { stiffness } => (
+                Some(Projection::Pbd { stiffness }),
+                Some(Projection::Pbd { stiffness }),
+                0.0,
+            ),
+            SolverMethod::Hybrid => (Some(xpbd(settings.stretch_compliance)), None, volume_alpha),
+            SolverMethod::MassSpring => (None, None, 0.0),
+        };
+        let isometric = match bend {
+            Some(Projection::Xpbd { alpha_tilde }) if settings.isometric_bending => {
+                Some(alpha_tilde)
+            }
+            // Plain PBD has no compliance to calibrate: it keeps the dihedral form.
+            _ => None,
+        };
+        Self {
+            stretch,
+            bend,
+            isometric,
+            volume_alpha,
+        }
+    }
+}
+
+impl ClothSim {
+    /// One fixed step of `settings.method` at `settings.substeps` (more with automatic
+    /// substeps), through the pipeline of the module docs.
+    pub(super) fn step_substeps(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+        let method = settings.method;
+        let uses_springs = matches!(method, SolverMethod::MassSpring | SolverMethod::Hybrid);
+        let hybrid = method == SolverMethod::Hybrid;
+        let mass_spring = method == SolverMethod::MassSpring;
+        if uses_springs {
+            self.spring_scratch();
+        }
+        let mut substeps = settings.substeps.max(1);
+        if let Some(springs) = self.springs.as_ref().filter(|_| uses_springs)
+            && settings.auto_substeps
+        {
+            let h_max =
+                springs
+                    .set
+                    .stable_step(&settings.springs, !hybrid, &self.state.inverse_masses);
+            substeps = auto_substeps(dt, h_max, substeps);
+        }
+        self.last_substeps = substeps;
+        let iterations = if mass_spring {
+            1
+        } else {
+            settings.iterations.max(1)
+        };
+        let h = dt / substeps as f32;
+        let inv_h = 1.0 / h;
+        let a = Vec3A::from(acceleration);
+        let projections = Projections::of(settings, h);
+        // With zero compliance an XPBD step is PBD's with stiffness 1: the batched edges then
+        // skip their multipliers.
+        let batch_stretch = match projections.stretch {
+            Some(Projection::Xpbd { alpha_tilde: 0.0 }) => Projection::Pbd { stiffness: 1.0 },
+            other => other.unwrap_or(Projection::Pbd { stiffness: 1.0 }),
+        };
+        if let Some(alpha_tilde) = projections.isometric
+            && self.bend_alpha_prepared != alpha_tilde.to_bits()
+        {
+            self.isometric_prepared.prepare(
+                &self.isometric_pairs,
+                &self.state.inverse_masses,
+                alpha_tilde,
+            );
+            self.bend_alpha_prepared = alpha_tilde.to_bits();
+        }
+        let long_range = settings.long_range_attachments && !mass_spring;
+        // XPBD and PBD let a contact remove the substep's gravity as the particle rests; the
+        // spring methods have already integrated it into the velocity.
+        let contact_push = if uses_springs { Vec3A::ZERO } else { a * h };
+        // Mass-spring's velocities are its own, not the positions' difference.
+        let respond_inv_h = if mass_spring { 0.0 } else { inv_h };
+        let damping_k = 1.0 - (-settings.damping * h).exp();
+        let pin_velocity = 1.0 / dt;
+        let bounce_threshold = 2.0 * a.length() * h;
+
+        let ClothState {
+            positions: x,
+            previous_positions: x_prev,
+            velocities: v,
+            inverse_masses: w,
+        } = &mut self.state;
+        let mut springs = self.springs.as_mut().filter(|_| uses_springs);
+        let colliders = &self.colliders;
+        let self_collision = self
+            .self_collision
+            .as_ref()
+            .filter(|_| settings.self_collision);
+        self.contacts
+            .begin_step(colliders, x.len(), settings.thickness);
+
+        for s in 0..substeps {
+            // 1. Predict.
+            let half_h2_a = a * (0.5 * h * h);
+            match springs.as_deref_mut() {
+                None => {
+                    for (((x, x_prev), v), &w) in
+                        x.iter_mut().zip(x_prev.iter_mut()).zip(&*v).zip(&*w)
+                    {
+                        *x_prev = *x;
+                        if w > 0.0 {
+                            *x += *v * h + half_h2_a;
+                        }
+                    }
+                }
+                Some(springs) => {
+                    springs.forces.fill(Vec3A::ZERO);
+                    springs
+                        .set
+                        .add_forces(&settings.springs, !hybrid, x, v, &mut springs.forces);
+                    for i in 0..x.len() {
+                        x_prev[i] = x[i];
+                        if w[i] > 0.0 {
+                            v[i] += (a + springs.forces[i] * w[i]) * h;
+                            x[i] += v[i] * h;
+                        }
+                    }
+                }
+            }
+            let t_end = (s + 1) as f32 / substeps as f32;
+            for pin in self.pins.iter().chain(self.drag.as_ref()) {
+                let p = pin.particle as usize;
+                x[p] = pin.start.lerp(pin.end, t_end);
+                if uses_springs {
+                    v[p] = (pin.end - pin.start) * pin_velocity;
+                }
+            }
+
+            // 2. Project.
+            if !colliders.is_empty() {
+                self.contacts.begin_substep(colliders, t_end);
+            }
+            let mut volume = match (settings.volume, self.volume.as_mut()) {
+                (Some(v), Some(Ok(constraint))) if !mass_spring => {
+                    constraint.reset_multiplier();
+                    Some((v, constraint))
+                }
+                _ => None,
+            };
+            match springs.as_deref_mut() {
+                Some(springs) => springs.lambdas.fill(0.0),
+                None if volume.is_some() => self.edge_lambdas.fill(0.0),
+                None if matches!(batch_stretch, Projection::Xpbd { .. }) => {
+                    self.edge_batch_lambdas.fill(Vec4::ZERO);
+                }
+                None => {}
+            }
+            for iteration in 0..iterations {
+                if long_range {
+                    self.limit_batches.project_limits(x);
+                    self.tether_batches.project_limits(x);
+                    for tether in &self.contact_tethers {
+                        project_mutual_tether(x, w, tether);
+                    }
+                }
+                if let Some(stretch) = projections.stretch {
+                    let (edges, lambdas) = match springs.as_deref_mut() {
+                        Some(springs) => (&springs.set.structural_edges, &mut springs.lambdas),
+                        None => (&self.model.edges, &mut self.edge_lambdas),
+                    };
+                    if volume.is_some() {
+                        project_edges_jacobi(edges, lambdas, x, w, stretch, &mut self.jacobi);
+                    } else if hybrid {
+                        project_edges(edges, lambdas, x, w, stretch);
+                    } else {
+                        self.edge_batches.project_distances(
+                            &mut self.edge_batch_lambdas,
+                            x,
+                            batch_stretch,
+                        );
+                    }
+                }
+                if let Some((v, constraint)) = volume.as_mut() {
+                    constraint.project(x, w, v.pressure, projections.volume_alpha);
+                }
+                // Bending is soft: once per substep, so its multipliers start at zero each
+                // time and need no storing.
+                if iteration == 0
+                    && let Some(bend) = projections.bend
+                {
+                    if projections.isometric.is_some() {
+                        self.isometric_prepared.project(x);
+                    }
+                    let dihedral = if projections.isometric.is_some() {
+                        &self.curved_pairs
+                    } else {
+                        &self.model.bending_pairs
+                    };
+                    for pair in dihedral {
+                        let mut lambda = 0.0;
+                        project_bending(x, w, pair.particles, pair.rest_angle, bend, &mut lambda);
+                    }
+                }
+                // Self-collision before the colliders, so that pushing layers apart never
+                // leaves a particle inside a collider. Mass-spring's is discrete: the
+                // correction also changes the velocity.
+                if let Some(sc) = self_collision {
+                    let discrete = mass_spring.then_some((v.as_mut_slice(), inv_h));
+                    let touching = sc.project(x, x_prev, w, settings.friction, discrete);
+                    if iteration + 1 == iterations {
+                        self.self_contacts = self.self_contacts.max(touching);
+                    }
+                }
+                if !colliders.is_empty() {
+                    self.contacts
+                        .project(colliders, x, v, w, contact_push, settings.thickness);
+                }
+            }
+
+            // 3. Velocities. XPBD and PBD: v = (x - x_prev) / h + h/2 a, computed as
+            //    v + h a + (x - x_pred) / h with the prediction x_pred recomputed bit for bit,
+            //    so that an unconstrained particle's velocity carries no rounding from the
+            //    difference of two nearly equal positions (in f32 that difference loses
+            //    millimetres per second of fall).
+            if hybrid {
+                for i in 0..x.len() {
+                    v[i] = (x[i] - x_prev[i]) * inv_h;
+                }
+            } else if !mass_spring {
+                let h_a = a * h;
+                for (((x, x_prev), v), &w) in x.iter().zip(&*x_prev).zip(v.iter_mut()).zip(&*w) {
+                    if w > 0.0 {
+                        let predicted = *x_prev + (*v * h + half_h2_a);
+                        *v += h_a + (*x - predicted) * inv_h;
+                    } else {
+                        *v = (*x - *x_prev) * inv_h;
+                    }
+                }
+            }
+
+            // 4. Contacts: restitution and friction relative to each collider's surface, then
+            //    damping.
+            if !colliders.is_empty() {
+                self.contacts
+                    .respond(colliders, x, x_prev, v, respond_inv_h, h, bounce_threshold);
+            }
+            damp(settings, damping_k, x, v, w, &self.free_masses);
+        }
+    }
+}
