@@ -151,19 +151,19 @@ fn roll_capsule(time: Res<Time>, mut rollers: Query<&mut Transform, With<Roller>
 /// the balloon lands.
 fn tie_knot(mut tied: ResMut<KnotTied>, mut balloons: Query<&mut ClothSimulation, With<Balloon>>) {
     for mut balloon in &mut balloons {
-        let sim = balloon.sim();
+        let sim = balloon.solver();
         if tied.0 {
             let knot_in_air = sim
                 .pins()
                 .iter()
                 .any(|pin| sim.state().positions[pin.particle as usize].y > 0.1);
             if knot_in_air {
-                tied.0 = balloon.sim_mut().set_pins(&[]).is_err();
+                tied.0 = balloon.solver_mut().set_pins(&[]).is_err();
             }
             continue;
         }
         let lowest = balloon
-            .sim()
+            .solver()
             .state()
             .positions
             .iter()
@@ -173,7 +173,7 @@ fn tie_knot(mut tied: ResMut<KnotTied>, mut balloons: Query<&mut ClothSimulation
         if let Some((knot, height)) = lowest
             && height < 0.05
         {
-            tied.0 = balloon.sim_mut().set_pins(&[knot]).is_ok();
+            tied.0 = balloon.solver_mut().set_pins(&[knot]).is_ok();
         }
     }
 }
@@ -212,7 +212,7 @@ fn label(
 ) {
     for (settings, simulation) in &balloons {
         let pressure = settings.solver.volume.map_or(0.0, |v| v.pressure);
-        let volume = simulation.and_then(|s| s.sim().volume());
+        let volume = simulation.and_then(|s| s.solver().volume());
         for mut text in &mut labels {
             text.0 = match volume {
                 Some((now, rest)) => format!(

@@ -209,7 +209,7 @@ fn label(
     let Ok((simulation, settings)) = ponchos.single() else {
         return;
     };
-    let sim = simulation.sim();
+    let sim = simulation.solver();
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     for mut text in &mut labels {
         text.0 = format!(

@@ -91,7 +91,7 @@ fn labels(
         let Ok((settings, simulation)) = cloths.get(label.0) else {
             continue;
         };
-        let contacts = simulation.map_or(0, |s| s.sim().self_contact_count());
+        let contacts = simulation.map_or(0, |s| s.solver().self_contact_count());
         text.0 = if settings.solver.self_collision {
             format!("self-collision on: {contacts} pairs held apart")
         } else {

@@ -269,7 +269,7 @@ fn labels(
         else {
             continue;
         };
-        let sim = simulation.sim();
+        let sim = simulation.solver();
         let mut line = format!(
             "{}\n{} substeps, max strain {:.2}%",
             column.method.name().to_uppercase(),

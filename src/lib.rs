@@ -32,13 +32,13 @@ pub mod prelude {
         ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
     pub use crate::cloth::{
-        ClothModel, ClothSim, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
+        ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
         SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
     };
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{
         AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,
-        ColliderWorld, KinematicVelocity,
+        KinematicVelocity, StepColliders,
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};

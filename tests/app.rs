@@ -85,7 +85,7 @@ fn a_cloth_entity_falls_writes_its_mesh_and_keeps_its_pins() {
         let d = after[pin as usize].distance(before[pin as usize]);
         assert!(d < 1e-5, "pinned vertex {pin} moved {d}");
     }
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     assert!(sim.strain().max < 0.05);
 }
 
@@ -126,7 +126,7 @@ fn moving_the_cloth_entity_moves_its_pins_and_an_attachment_follows_its_target()
     for _ in 0..30 {
         app.update();
     }
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     let x = &sim.state().positions;
     assert!(Vec3::from(x[0]).distance(Vec3::new(0.25, 2.0, 0.0)) < 1e-5);
     let attached = Vec3::from(x[grid.index(5, 0) as usize]);
@@ -199,7 +199,7 @@ fn bad_meshes_are_refused_with_an_error_component_and_the_app_keeps_running() {
         Some(ClothError::VertexOutOfRange { vertex: 99, .. })
     ));
     // The good cloth next to them simulates.
-    let sim = app.world().get::<ClothSimulation>(ok).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(ok).unwrap().solver();
     assert!(sim.is_finite());
     assert!(sim.state().positions[0].y < -0.1);
 }
@@ -219,7 +219,7 @@ fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
         app.world()
             .get::<ClothSimulation>(cloth)
             .unwrap()
-            .sim()
+            .solver()
             .model()
             .total_mass()
     };
@@ -238,7 +238,7 @@ fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
         .world()
         .get::<ClothSimulation>(cloth)
         .unwrap()
-        .sim()
+        .solver()
         .state()
         .clone();
     for _ in 0..5 {
@@ -248,7 +248,7 @@ fn changing_density_changes_the_mass_and_pausing_stops_the_cloth() {
         .world()
         .get::<ClothSimulation>(cloth)
         .unwrap()
-        .sim()
+        .solver()
         .state();
     assert_eq!(now, &frozen);
 }
@@ -263,7 +263,7 @@ fn the_simulation_schedule_can_be_chosen() {
     }
     // 10 fixed steps of free fall from rest: y = -g t^2 / 2 at t = 10/64 s.
     let t = 10.0 / 64.0;
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     let y = sim.rigid_motion().unwrap().center_of_mass.y;
     assert!((y + 0.5 * 9.81 * t * t).abs() < 1e-4, "y = {y}");
 }
@@ -318,7 +318,7 @@ fn a_diverging_cloth_is_reported_frozen_and_stepped_again_when_its_settings_chan
     assert_eq!(first.response, OnDivergence::Freeze);
     let simulation = app.world().get::<ClothSimulation>(cloth).unwrap();
     assert!(simulation.is_frozen());
-    assert!(simulation.sim().is_finite());
+    assert!(simulation.solver().is_finite());
     let frozen = positions(&app, cloth);
     assert!(frozen.iter().all(|p| p.is_finite()));
     app.update();
@@ -341,7 +341,7 @@ fn a_diverging_cloth_is_reported_frozen_and_stepped_again_when_its_settings_chan
     }
     let simulation = app.world().get::<ClothSimulation>(cloth).unwrap();
     assert!(!simulation.is_frozen());
-    assert!(simulation.sim().last_substeps() > 1);
+    assert!(simulation.solver().last_substeps() > 1);
     assert_ne!(positions(&app, cloth), frozen);
     assert!(later.is_empty(), "no new divergence: {later:?}");
 }
@@ -359,7 +359,7 @@ fn a_diverging_cloth_set_to_reset_goes_back_to_its_rest_shape() {
     assert!(seen.iter().any(|m| m.response == OnDivergence::Reset));
     let simulation = app.world().get::<ClothSimulation>(cloth).unwrap();
     assert!(!simulation.is_frozen());
-    let sim = simulation.sim();
+    let sim = simulation.solver();
     let rest = grid.mesh().positions;
     // Reset after the last step: the state is the rest shape, 1 m up.
     let worst = sim
@@ -383,7 +383,7 @@ fn switching_the_method_of_a_cloth_entity_keeps_its_motion() {
         app.world()
             .get::<ClothSimulation>(cloth)
             .unwrap()
-            .sim()
+            .solver()
             .state()
             .clone()
     };
@@ -463,7 +463,7 @@ fn degenerate_colliders_are_ignored_with_an_error_and_the_cloth_keeps_stepping()
         assert!(state.error().is_some(), "{entity} refused");
         assert!(state.collider().is_none());
     }
-    let world = app.world().resource::<ColliderWorld>();
+    let world = app.world().resource::<StepColliders>();
     assert_eq!(world.entities, vec![good]);
     // The cloth fell onto the good plane and stayed finite.
     let after = positions(&app, cloth);
@@ -550,7 +550,7 @@ fn cloth_drapes_over_a_box_collider_read_from_an_obj_file() {
     for _ in 0..129 {
         app.update();
     }
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     let x = &sim.state().positions;
     assert!(sim.is_finite());
     // The middle of the sheet rests on the box's top, margin + thickness above it.

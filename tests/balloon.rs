@@ -9,7 +9,7 @@ use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_drape::cloth::{VolumeSettings, weld};
-use bevy_drape::collide::{Collider, RigidPose, Shape};
+use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape};
 use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
 
@@ -18,12 +18,12 @@ const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
 
 /// A UV sphere of radius 0.3 m at 0.5 m (its seam and poles split into separate vertices),
 /// welded into a closed cloth, over a frictionless ground plane.
-fn balloon(settings: &SolverSettings) -> ClothSim {
+fn balloon(settings: &SolverSettings) -> ClothSolver {
     balloon_on(settings, 0.0)
 }
 
 /// [`balloon`] over a ground with friction `mu`.
-fn balloon_on(settings: &SolverSettings, mu: f32) -> ClothSim {
+fn balloon_on(settings: &SolverSettings, mu: f32) -> ClothSolver {
     let mesh: Mesh = Sphere::new(0.3).mesh().uv(32, 16);
     let (positions, indices) = mesh_triangles(&mesh).unwrap();
     let welded = weld(&positions, &indices, 1e-6);
@@ -34,8 +34,8 @@ fn balloon_on(settings: &SolverSettings, mu: f32) -> ClothSim {
         .map(|p| *p + Vec3::Y * 0.5)
         .collect();
     let model = ClothModel::from_triangles(&lifted, &welded.indices, 0.1).unwrap();
-    let mut sim = ClothSim::new(model);
-    let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
+    let mut sim = ClothSolver::new(model);
+    let mut ground = SolverCollider::fixed(SolverShape::Plane, RigidPose::IDENTITY);
     ground.margin = 0.0;
     ground.material.friction = mu;
     sim.set_colliders(&[ground]);
@@ -129,7 +129,7 @@ fn a_pressurised_balloon_on_ground_with_friction_stays_where_it_lands() {
 #[test]
 fn an_open_cloth_asked_for_a_volume_gets_a_clear_error_and_still_steps() {
     let grid = GridDesc::square(1.0, 8, Vec3::ZERO);
-    let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
     match sim.enable_volume() {
         Err(ClothError::OpenSurface { boundary_edges }) => assert_eq!(boundary_edges, 4 * 7),
         other => panic!("{other:?}"),
@@ -190,7 +190,7 @@ fn a_sphere_with_split_seams_simulates_as_one_piece() {
         app.update();
     }
     let simulation = app.world().get::<ClothSimulation>(cloth).unwrap();
-    let sim = simulation.sim();
+    let sim = simulation.solver();
     let particles = sim.state().len();
     assert!(
         particles < vertices,

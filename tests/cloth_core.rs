@@ -5,7 +5,7 @@ use std::f32::consts::PI;
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, DampingMode, EdgeKind, GridDesc, SolverMethod, SolverSettings,
+    ClothModel, ClothSolver, DampingMode, EdgeKind, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::error::{ClothError, ClothWarning};
 use drape_scenes::scenes::{GRAVITY, HangingCloth};
@@ -22,9 +22,9 @@ fn undamped(substeps: u32, iterations: u32) -> SolverSettings {
     }
 }
 
-fn free_grid(n: u32) -> ClothSim {
+fn free_grid(n: u32) -> ClothSolver {
     let grid = GridDesc::square(1.0, n, Vec3::new(-0.5, 2.0, -0.5));
-    ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap())
+    ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap())
 }
 
 /// Times at which `signal` crosses zero upward, linearly interpolated.
@@ -95,7 +95,7 @@ fn a_spinning_free_cloth_keeps_its_angular_momentum_under_rigid_damping_only() {
     // onto its constraints (0.7% over 2 s at 20 substeps, 1.6% at 8).
     let spin = |mode: DampingMode| {
         let grid = GridDesc::square(1.0, 9, Vec3::new(-0.5, 0.0, -0.5));
-        let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
         let omega = Vec3A::new(0.3, 2.0, 0.0);
         let com = sim.rigid_motion().unwrap().center_of_mass;
         let state = sim.state_mut();
@@ -134,7 +134,7 @@ fn pendulum_period_matches_small_amplitude_theory() {
         Vec3::new(length * amplitude.sin(), -length * amplitude.cos(), 0.0),
     ];
     let model = ClothModel::from_particles(&positions, &[0.0, 1.0], &[[0, 1]]).unwrap();
-    let mut sim = ClothSim::new(model);
+    let mut sim = ClothSolver::new(model);
     sim.set_pins(&[0]).unwrap();
     let settings = undamped(20, 1);
     let (mut times, mut xs) = (Vec::new(), Vec::new());
@@ -154,7 +154,7 @@ fn compliant_constraint_oscillates_like_a_spring_of_stiffness_one_over_complianc
     let (mass, stiffness, rest) = (0.1f32, 40.0f32, 0.5f32);
     let positions = [Vec3::ZERO, Vec3::new(0.0, -rest, 0.0)];
     let model = ClothModel::from_particles(&positions, &[0.0, mass], &[[0, 1]]).unwrap();
-    let mut sim = ClothSim::new(model);
+    let mut sim = ClothSolver::new(model);
     sim.set_pins(&[0]).unwrap();
     let settings = SolverSettings {
         stretch_compliance: 1.0 / stiffness,
@@ -336,7 +336,7 @@ fn bad_input_gives_typed_errors_and_warnings() {
         ClothError::NoTriangles
     );
     // Pins out of range.
-    let mut sim = ClothSim::new(ClothModel::from_triangles(&quad, &ok, 0.1).unwrap());
+    let mut sim = ClothSolver::new(ClothModel::from_triangles(&quad, &ok, 0.1).unwrap());
     assert!(matches!(
         sim.set_pins(&[9]),
         Err(ClothError::VertexOutOfRange { vertex: 9, .. })
@@ -425,7 +425,7 @@ fn pins_set_or_released_between_steps_hold_or_let_go() {
 #[test]
 fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
     let mut sim = free_grid(10);
-    sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+    sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
         0.0,
         Default::default(),
     )]);
@@ -444,7 +444,7 @@ fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
 fn the_step_is_deterministic() {
     let run = || {
         let mut sim = HangingCloth { n: 16 }.build();
-        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+        sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
             0.2,
             Default::default(),
         )]);
@@ -471,7 +471,7 @@ fn cantilever_sag(isometric: bool, bend_compliance: f32) -> f32 {
         orientation: bevy::math::Quat::IDENTITY,
         origin: Vec3::new(0.0, 1.0, 0.0),
     };
-    let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
     let clamped: Vec<u32> = (0..5)
         .flat_map(|j| [grid.index(0, j), grid.index(1, j)])
         .collect();
@@ -519,10 +519,10 @@ fn isometric_and_dihedral_bending_hold_a_cantilever_alike() {
 fn a_falling_particle_keeps_its_kinetic_plus_potential_energy() {
     // Thrown up and sideways from 1 m: E = m v^2 / 2 + m g y, constant along the parabola.
     let model = ClothModel::from_particles(&[Vec3::Y], &[2.0], &[]).unwrap();
-    let mut sim = ClothSim::new(model);
+    let mut sim = ClothSolver::new(model);
     sim.state_mut().velocities[0] = Vec3::new(1.0, 3.0, 0.0).into();
     let settings = undamped(8, 1);
-    let energy = |sim: &ClothSim| sim.kinetic_energy() + sim.potential_energy(GRAVITY);
+    let energy = |sim: &ClothSolver| sim.kinetic_energy() + sim.potential_energy(GRAVITY);
     let start = energy(&sim);
     assert!(
         (start - (0.5 * 2.0 * 10.0 + 2.0 * 9.81 * 1.0)).abs() < 1e-4,

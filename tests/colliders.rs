@@ -5,14 +5,14 @@
 use std::sync::Arc;
 
 use bevy::math::{Quat, Vec3, Vec3A};
-use bevy_drape::cloth::{ClothModel, ClothSim, GridDesc, SolverMethod, SolverSettings};
-use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape, TriMesh};
+use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverMethod, SolverSettings};
+use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape, TriMesh};
 use drape_scenes::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
 
 const DT: f32 = 1.0 / FRAME_RATE;
 
-fn particle(at: Vec3) -> ClothSim {
-    ClothSim::new(ClothModel::from_particles(&[at], &[0.01], &[]).unwrap())
+fn particle(at: Vec3) -> ClothSolver {
+    ClothSolver::new(ClothModel::from_particles(&[at], &[0.01], &[]).unwrap())
 }
 
 fn settings(method: SolverMethod) -> SolverSettings {
@@ -24,9 +24,9 @@ fn settings(method: SolverMethod) -> SolverSettings {
     }
 }
 
-fn plane(rotation: Quat, material: ContactMaterial) -> Collider {
-    let mut c = Collider::fixed(
-        Shape::Plane,
+fn plane(rotation: Quat, material: ContactMaterial) -> SolverCollider {
+    let mut c = SolverCollider::fixed(
+        SolverShape::Plane,
         RigidPose {
             translation: Vec3A::ZERO,
             rotation,
@@ -97,9 +97,9 @@ fn slide(angle: f32, mu: f32) -> (f32, f32) {
         orientation: rotation,
         ..GridDesc::square(0.1, 4, start)
     };
-    let mut patch = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    let mut patch = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
     patch.set_colliders(&[plane(rotation, material)]);
-    let centre = |sim: &ClothSim| {
+    let centre = |sim: &ClothSolver| {
         let x = &sim.state().positions;
         Vec3::from(x.iter().copied().sum::<Vec3A>() / x.len() as f32)
     };
@@ -144,7 +144,7 @@ fn on_an_incline_a_particle_and_a_patch_stay_below_the_friction_angle_and_slide_
 fn a_spinning_sphere_carries_a_particle_resting_on_top_along_omega_cross_r() {
     let radius = 0.5;
     let omega = Vec3A::new(0.0, 0.0, -2.0);
-    let mut sphere = Collider::fixed(Shape::Sphere { radius }, RigidPose::IDENTITY);
+    let mut sphere = SolverCollider::fixed(SolverShape::Sphere { radius }, RigidPose::IDENTITY);
     sphere.angular_velocity = omega;
     sphere.material.friction = 0.8;
     let top = Vec3A::new(0.0, radius, 0.0);
@@ -177,7 +177,7 @@ fn a_fast_collider_leaves_no_particle_inside_it() {
     let radius = 0.3;
     let per_step = 0.5;
     let grid = GridDesc::square(1.0, 24, Vec3::new(0.0, 0.3, 0.0));
-    let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
     sim.set_pins(&[grid.index(0, 0), grid.index(23, 0)])
         .unwrap();
     let settings = SolverSettings::default();
@@ -187,8 +187,8 @@ fn a_fast_collider_leaves_no_particle_inside_it() {
         // Sweeps through the sheet along x, 0.5 m per fixed step (30 m/s).
         let start = Vec3A::new(-0.6 + per_step * step as f32, 0.3, 0.5);
         let end = start + Vec3A::X * per_step;
-        let mut sphere = Collider::fixed(
-            Shape::Sphere { radius },
+        let mut sphere = SolverCollider::fixed(
+            SolverShape::Sphere { radius },
             RigidPose {
                 translation: start,
                 rotation: Quat::IDENTITY,
@@ -257,7 +257,7 @@ fn a_triangle_mesh_collider_holds_a_particle_like_the_plane_it_tiles() {
     ];
     let mesh = Arc::new(TriMesh::new(&v, &[0, 1, 2, 0, 2, 3]).unwrap());
     let mut sim = particle(Vec3::new(0.1, 0.5, 0.2));
-    let mut floor = Collider::fixed(Shape::TriangleMesh(mesh), RigidPose::IDENTITY);
+    let mut floor = SolverCollider::fixed(SolverShape::TriangleMesh(mesh), RigidPose::IDENTITY);
     floor.margin = 0.01;
     sim.set_colliders(&[floor]);
     for _ in 0..120 {

@@ -3,7 +3,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
+    ClothModel, ClothSolver, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::interact::pick::pick_particle;
 use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
@@ -21,8 +21,8 @@ fn a_dragged_particle_reaches_its_goal_and_the_cloth_stays_bounded_when_yanked()
         (SolverMethod::MassSpring, Vec3::new(0.0, 0.3, 0.0)),
     ] {
         let grid = GridDesc::square(1.0, 16, Vec3::new(0.0, 0.01, 0.0));
-        let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
-        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
+        sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
             0.0,
             Default::default(),
         )]);

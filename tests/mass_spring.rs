@@ -5,7 +5,7 @@ use std::f32::consts::{PI, TAU};
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
+    ClothModel, ClothSolver, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
 };
 use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
 
@@ -16,14 +16,14 @@ const STRETCH: f32 = 0.05;
 
 /// One particle of mass `MASS` hanging (without gravity) on a spring of stiffness `K` and
 /// damping `c` from a fixed particle, released stretched by `STRETCH` along the spring.
-fn oscillator() -> ClothSim {
+fn oscillator() -> ClothSolver {
     let model = ClothModel::from_particles(
         &[Vec3::ZERO, Vec3::new(0.0, -REST, 0.0)],
         &[0.0, MASS],
         &[[0, 1]],
     )
     .unwrap();
-    let mut sim = ClothSim::new(model);
+    let mut sim = ClothSolver::new(model);
     sim.state_mut().positions[1] = Vec3A::new(0.0, -REST - STRETCH, 0.0);
     sim
 }
@@ -46,12 +46,17 @@ fn spring_settings(method: SolverMethod, c: f32, substeps: u32) -> SolverSetting
 }
 
 /// Displacement from rest along the spring.
-fn displacement(sim: &ClothSim) -> f32 {
+fn displacement(sim: &ClothSolver) -> f32 {
     -sim.state().positions[1].y - REST
 }
 
 /// Runs `steps` steps of `dt` and returns `(t, displacement)` after each.
-fn trace(sim: &mut ClothSim, settings: &SolverSettings, dt: f32, steps: usize) -> Vec<(f32, f32)> {
+fn trace(
+    sim: &mut ClothSolver,
+    settings: &SolverSettings,
+    dt: f32,
+    steps: usize,
+) -> Vec<(f32, f32)> {
     (1..=steps)
         .map(|i| {
             sim.step(settings, Vec3::ZERO, dt);
@@ -170,7 +175,7 @@ fn stiff_cloth_settings(auto_substeps: bool) -> SolverSettings {
 }
 
 /// Runs S1 at `n` for `frames` frames; returns the frame it diverged at, if it did.
-fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> (ClothSim, Option<u32>) {
+fn run_s1(n: u32, settings: &SolverSettings, frames: u32) -> (ClothSolver, Option<u32>) {
     let run = HangingCloth { n }.run(settings, frames);
     (run.sim, run.divergence.map(|(frame, _)| frame))
 }
@@ -282,8 +287,8 @@ fn switching_the_method_keeps_positions_and_velocities() {
 fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
     for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
         let grid = bevy_drape::cloth::GridDesc::square(0.5, 10, Vec3::new(0.0, 0.3, 0.0));
-        let mut sim = ClothSim::new(ClothModel::grid(&grid, DENSITY).unwrap());
-        sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
+        sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
             0.0,
             Default::default(),
         )]);

@@ -241,11 +241,11 @@ fn run(case: &Case, mover_at: MoverAt, steps: usize) -> Vec<Track> {
                 track.clip_times.push(clip_time);
                 if track.surface.is_empty() {
                     let (r, l) = match c.shape {
-                        bevy_drape::collide::Shape::Capsule {
+                        bevy_drape::collide::SolverShape::Capsule {
                             radius,
                             half_length,
                         } => (radius, half_length),
-                        bevy_drape::collide::Shape::Sphere { radius } => (radius, 0.0),
+                        bevy_drape::collide::SolverShape::Sphere { radius } => (radius, 0.0),
                         _ => (0.0, 0.0),
                     };
                     track.surface = vec![
@@ -420,7 +420,7 @@ fn random_motions_and_any_schedule_of_the_mover_give_the_same_velocities() {
 fn carried_sheet(mover: &Mover, inertia: f32, steps: usize) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>) {
     use bevy_drape::collide::{FrameTracker, RigidPose};
     let grid = GridDesc::square(0.5, 6, Vec3::new(-0.25, 1.0, -0.25));
-    let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
     let start: Vec<Vec3> = sim.state().positions.iter().map(|&p| p.into()).collect();
     let mut tracker = FrameTracker::default();
     let dt = 1.0 / 60.0;
@@ -489,7 +489,7 @@ fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_fra
     let velocity = Vec3::new(1.5, 0.0, -0.5);
     for inertia in [0.0, 0.25, 0.5, 1.0] {
         let grid = GridDesc::square(0.5, 5, Vec3::ZERO);
-        let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
         let x0 = sim.state().positions[0];
         // The frame moves at a constant velocity for 1 s, then stops.
         let mut at = Vec3::ZERO;
@@ -553,7 +553,7 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
         app.update();
     }
     let centroid = |app: &App| {
-        let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+        let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
         let x = &sim.state().positions;
         Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32
     };
@@ -577,7 +577,7 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
         .world()
         .get::<ClothSimulation>(cloth)
         .unwrap()
-        .sim()
+        .solver()
         .strain()
         .max;
     // A respawn: 10 m away and turned a quarter turn, in one step.
@@ -593,7 +593,7 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
     let sim = app.world().get::<ClothSimulation>(cloth).unwrap();
     assert!(sim.followed().unwrap().jumped);
     assert!(
-        sim.sim().strain().max < strain_before + 0.01,
+        sim.solver().strain().max < strain_before + 0.01,
         "the jump stretched the cloth"
     );
     // Drawn in the character's frame: on the character, not smeared across the jump.
@@ -606,6 +606,6 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
     for _ in 0..30 {
         app.update();
     }
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     assert!(sim.is_finite() && sim.strain().max < 0.05);
 }

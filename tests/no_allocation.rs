@@ -50,7 +50,7 @@ static GLOBAL: Counting = Counting;
 fn stepping_allocates_nothing() {
     let scene = HangingCloth { n: 12 };
     let mut sim = scene.build();
-    sim.set_colliders(&[bevy_drape::collide::Collider::ground(
+    sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
         0.5,
         Default::default(),
     )]);

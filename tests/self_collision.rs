@@ -48,14 +48,18 @@ fn drop_sheet(self_collision: bool) -> (f32, usize) {
     let (mut gap, mut contacts) = (f32::INFINITY, 0);
     for _ in 0..181 {
         app.update();
-        let Some(sim) = app.world().get::<ClothSimulation>(cloth).map(|c| c.sim()) else {
+        let Some(sim) = app
+            .world()
+            .get::<ClothSimulation>(cloth)
+            .map(|c| c.solver())
+        else {
             continue;
         };
         let g = closest_non_adjacent(sim, spacing).unwrap_or(f32::INFINITY) / spacing;
         gap = gap.min(g);
         contacts = contacts.max(sim.self_contact_count());
     }
-    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().sim();
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     assert!(sim.is_finite());
     (gap, contacts)
 }

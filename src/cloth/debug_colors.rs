@@ -1,7 +1,7 @@
 //! Debug colours: a colour per cloth vertex showing strain, speed, collider contact or pinned
 //! state.
 
-use crate::cloth::{ClothSim, EdgeKind};
+use crate::cloth::{ClothSolver, EdgeKind};
 use bevy::reflect::Reflect;
 
 /// What the debug colours show.
@@ -54,7 +54,7 @@ const GREY: [f32; 4] = [0.6, 0.6, 0.6, 1.0];
 const RED: [f32; 4] = [0.95, 0.15, 0.1, 1.0];
 
 /// Fills `out` with one colour per particle of `sim` for `mode` (empty for `Off`).
-pub(crate) fn debug_colors(sim: &ClothSim, mode: DebugColorMode, out: &mut Vec<[f32; 4]>) {
+pub(crate) fn debug_colors(sim: &ClothSolver, mode: DebugColorMode, out: &mut Vec<[f32; 4]>) {
     out.clear();
     let state = sim.state();
     let n = state.len();
@@ -100,13 +100,13 @@ pub(crate) fn debug_colors(sim: &ClothSim, mode: DebugColorMode, out: &mut Vec<[
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::{ClothModel, ClothSim, GridDesc};
+    use crate::cloth::{ClothModel, ClothSolver, GridDesc};
     use bevy::math::Vec3;
 
     #[test]
     fn every_mode_gives_one_finite_colour_per_vertex_and_pins_are_red() {
         let grid = GridDesc::square(1.0, 6, Vec3::Y);
-        let mut sim = ClothSim::new(ClothModel::grid(&grid, 0.1).unwrap());
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
         let pins = [grid.index(0, 0), grid.index(5, 0)];
         sim.set_pins(&pins).unwrap();
         let mut out = Vec::new();

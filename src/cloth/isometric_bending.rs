@@ -26,7 +26,7 @@ use bevy::math::{Quat, Vec3, Vec3A};
 /// A flat bending pair in isometric form.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IsometricPair {
-    /// `[x0, x1, x2, x3]`, as in [`super::BendingPair`].
+    /// `[x0, x1, x2, x3]`, as in the model's bending pairs.
     pub particles: [u32; 4],
     /// The cotangent weights `K`.
     pub weights: [f32; 4],
@@ -95,7 +95,7 @@ impl IsometricPair {
 
 /// Isometric pairs ready for their one projection per substep.
 ///
-/// Bending is projected once per substep (see [`super::ClothSim::step`]), so its XPBD
+/// Bending is projected once per substep (see [`super::ClothSolver::step`]), so its XPBD
 /// multiplier is zero whenever it is projected: the step is `dl = -C / (sum_i w_i K_i^2 +
 /// alpha~)` and `x_i += w_i K_i dl`, which with `g_i = -w_i K_i / (sum_j w_j K_j^2 + alpha~)`
 /// is `x_i += g_i C`. The factors `g_i` depend only on the inverse masses and `alpha~`, so

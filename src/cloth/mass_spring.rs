@@ -149,7 +149,7 @@ pub struct AngleSpring {
     pub edge_length_sq: f32,
 }
 
-/// The springs of one cloth (see the [module docs](self)) and the per-particle sums the
+/// The springs of one cloth (see `mass_spring.rs`) and the per-particle sums the
 /// stability bound needs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpringSet {
@@ -173,7 +173,7 @@ fn family_index(family: SpringFamily) -> usize {
 }
 
 impl SpringSet {
-    /// Lays springs over `model` (see the [module docs](self)).
+    /// Lays springs over `model` (see `mass_spring.rs`).
     pub fn new(model: &ClothModel) -> Self {
         let x = &model.rest_positions;
         let n = model.particle_count();
@@ -353,7 +353,7 @@ impl SpringSet {
     }
 
     /// The largest stable symplectic Euler step for these springs (see the
-    /// [module docs](self)); infinite without springs or free particles.
+    /// module docs of `mass_spring.rs`); infinite without springs or free particles.
     pub fn stable_step(&self, constants: &SpringSettings, structural: bool, w: &[f32]) -> f32 {
         let (omega, gamma) = self.frequency_bounds(constants, structural, w);
         stable_step(omega, gamma)

@@ -1,5 +1,5 @@
 //! The Bevy side of the cloth: components, resources and the thin systems that build, step and
-//! draw [`ClothSim`]s.
+//! draw [`ClothSolver`]s.
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetServer, Assets, LoadState};
@@ -14,10 +14,12 @@ use super::debug_colors::{DebugColorMode, debug_colors};
 use super::mesh::compute_normals;
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use super::sim::{ClothSim, Divergence};
+use super::sim::{ClothSolver, Divergence};
 use super::weld::{default_tolerance, weld};
-use crate::collide::plugin::{ColliderWorld, world_pose};
-use crate::collide::{Collider, ContactMaterial, FrameStep, FrameTracker, RigidPose, Teleport};
+use crate::collide::plugin::{StepColliders, world_pose};
+use crate::collide::{
+    ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider, Teleport,
+};
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems};
@@ -161,16 +163,16 @@ pub struct ClothDiverged {
 
 impl ClothSettings {
     /// The ground and the container's walls as colliders, with the solver's friction.
-    fn plane_colliders(&self, out: &mut Vec<Collider>) {
+    fn plane_colliders(&self, out: &mut Vec<SolverCollider>) {
         let material = ContactMaterial {
             friction: self.solver.friction,
             restitution: 0.0,
         };
         if let Some(height) = self.ground {
-            out.push(Collider::ground(height, material));
+            out.push(SolverCollider::ground(height, material));
         }
         if let Some((min, max)) = self.container {
-            out.extend(Collider::box_walls(min.into(), max.into(), material));
+            out.extend(SolverCollider::box_walls(min.into(), max.into(), material));
         }
     }
 }
@@ -212,10 +214,12 @@ impl Default for DrapeSettings {
     }
 }
 
-/// The simulation of one cloth entity, added by `bevy_drape` once its mesh is loaded.
+/// The simulation of one cloth entity, added by `bevy_drape` once its mesh is loaded: the
+/// entity's [`ClothSolver`] (the core that steps it, free of ECS types) and how its mesh's
+/// vertices map to the solver's particles.
 #[derive(Component, Debug)]
 pub struct ClothSimulation {
-    sim: ClothSim,
+    sim: ClothSolver,
     /// Mesh-space rest positions of the mesh's vertices, for pins that follow the entity.
     local_rest: Vec<Vec3>,
     /// The particle of every mesh vertex (vertices split at seams share one).
@@ -231,7 +235,7 @@ pub struct ClothSimulation {
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
     /// The colliders this cloth meets in a step (the world's and its own planes).
-    colliders: Vec<Collider>,
+    colliders: Vec<SolverCollider>,
     warned_invalid_settings: bool,
     warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
@@ -262,13 +266,13 @@ impl ClothSimulation {
         self.vertex_to_particle.get(vertex as usize).copied()
     }
 
-    /// The simulated cloth.
-    pub fn sim(&self) -> &ClothSim {
+    /// The cloth's solver: its model, state, pins and colliders.
+    pub fn solver(&self) -> &ClothSolver {
         &self.sim
     }
 
-    /// The simulated cloth, to read or change its state directly.
-    pub fn sim_mut(&mut self) -> &mut ClothSim {
+    /// The cloth's solver, to read or change its state directly.
+    pub fn solver_mut(&mut self) -> &mut ClothSolver {
         &mut self.sim
     }
 
@@ -349,7 +353,7 @@ fn build_simulation(
             welded.positions.len()
         );
     }
-    let mut sim = ClothSim::new(model);
+    let mut sim = ClothSolver::new(model);
     let mut pinned = Vec::new();
     for &v in cloth
         .pinned_vertices
@@ -474,7 +478,7 @@ fn step_cloths(
     time: Res<Time>,
     transforms: TransformHelper,
     mut diverged: MessageWriter<ClothDiverged>,
-    colliders: Option<Res<ColliderWorld>>,
+    colliders: Option<Res<StepColliders>>,
 ) {
     let dt = time.delta_secs();
     for (entity, cloth, mut simulation, settings) in &mut cloths {

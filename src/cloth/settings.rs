@@ -50,7 +50,7 @@ impl SolverMethod {
 }
 
 /// When a cloth counts as diverged (checked after every fixed step by
-/// [`crate::cloth::ClothSim::divergence`]); a non-finite position or velocity always does.
+/// [`crate::cloth::ClothSolver::divergence`]); a non-finite position or velocity always does.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct DivergenceBounds {
     /// Largest structural strain `|len - rest| / rest` allowed. Default: `1.0` (an edge
@@ -139,7 +139,7 @@ pub struct SolverSettings {
     pub self_collision: bool,
     /// Hold the volume a closed cloth encloses (a balloon) at `pressure` times its rest
     /// volume (`cloth/volume.rs`; XPBD, PBD and hybrid). An open cloth asked for it is
-    /// stepped without it and reports [`crate::cloth::ClothSim::volume_error`]. Default:
+    /// stepped without it and reports [`crate::cloth::ClothSolver::volume_error`]. Default:
     /// `None`.
     pub volume: Option<VolumeSettings>,
     /// Pick the substep count per fixed step from a target strain instead of using
@@ -152,13 +152,13 @@ pub struct SolverSettings {
 /// structural strain below `target_strain`.
 ///
 /// After every fixed step the solver measures the largest strain
-/// ([`crate::cloth::ClothSim::strain`]). Above the target, the next step takes `1 + grow`
+/// ([`crate::cloth::ClothSolver::strain`]). Above the target, the next step takes `1 + grow`
 /// times as many substeps (at least one more); below `lower_fraction` of the target for
 /// `calm_steps` steps in a row, `1 + grow` times fewer (at least one fewer), so that a count
 /// raised for a brief peak of strain comes back down as fast as it went up. Between the two
 /// the count holds (the hysteresis
 /// band), so it does not flip between two counts every step. The count stays within
-/// `min_substeps ..= max_substeps`; [`crate::cloth::ClothSim::last_substeps`] reports the one
+/// `min_substeps ..= max_substeps`; [`crate::cloth::ClothSolver::last_substeps`] reports the one
 /// used. The first step uses [`SolverSettings::substeps`].
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct AdaptiveSubsteps {

@@ -1,4 +1,4 @@
-//! Particle contacts with [`Collider`]s: the position projection and the velocity response
+//! Particle contacts with [`SolverCollider`]s: the position projection and the velocity response
 //! with restitution and Coulomb friction, relative to the collider's surface velocity.
 //!
 //! In each substep of length `h` (collider poses taken at the end of the substep, so a
@@ -35,7 +35,7 @@
 
 use bevy::math::Vec3A;
 
-use super::shapes::{Collider, RigidPose};
+use super::shapes::{RigidPose, SolverCollider};
 use super::trimesh::Aabb;
 
 /// No collider.
@@ -86,7 +86,12 @@ impl ContactScratch {
     }
 
     /// Prepares a step: the colliders' swept bounds grown by their reach.
-    pub(crate) fn begin_step(&mut self, colliders: &[Collider], particles: usize, thickness: f32) {
+    pub(crate) fn begin_step(
+        &mut self,
+        colliders: &[SolverCollider],
+        particles: usize,
+        thickness: f32,
+    ) {
         self.contacts.resize(particles, Contact::EMPTY);
         self.bounds.clear();
         self.bounds.extend(
@@ -99,7 +104,7 @@ impl ContactScratch {
     }
 
     /// Prepares a substep ending a fraction `t` through the step: poses at `t`, no contacts.
-    pub(crate) fn begin_substep(&mut self, colliders: &[Collider], t: f32) {
+    pub(crate) fn begin_substep(&mut self, colliders: &[SolverCollider], t: f32) {
         for (pose, c) in self.poses.iter_mut().zip(colliders) {
             *pose = c.pose_at(t);
         }
@@ -112,7 +117,7 @@ impl ContactScratch {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn project(
         &mut self,
-        colliders: &[Collider],
+        colliders: &[SolverCollider],
         x: &mut [Vec3A],
         v: &[Vec3A],
         w: &[f32],
@@ -163,7 +168,7 @@ impl ContactScratch {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn respond(
         &self,
-        colliders: &[Collider],
+        colliders: &[SolverCollider],
         x: &mut [Vec3A],
         x_prev: &[Vec3A],
         v: &mut [Vec3A],

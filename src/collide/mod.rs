@@ -10,5 +10,5 @@ pub(crate) mod shapes;
 pub(crate) mod trimesh;
 
 pub use motion::{FrameStep, FrameTracker, Teleport};
-pub use shapes::{Collider, ContactMaterial, RigidPose, Shape};
+pub use shapes::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 pub use trimesh::TriMesh;

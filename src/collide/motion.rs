@@ -15,7 +15,7 @@
 //!
 //! A step also carries points, directions and poses with a fraction of its motion: how a
 //! cloth is carried along by the entity it follows (see
-//! [`ClothSim::follow_frame`](crate::cloth::ClothSim::follow_frame)).
+//! [`ClothSolver::follow_frame`](crate::cloth::ClothSolver::follow_frame)).
 
 use bevy::math::{Quat, Vec3A};
 use bevy::reflect::Reflect;

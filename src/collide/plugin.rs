@@ -14,7 +14,7 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
 use super::motion::FrameTracker;
-use super::shapes::{Collider, ContactMaterial, RigidPose, Shape};
+use super::shapes::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 use super::trimesh::TriMesh;
 use crate::cloth::plugin::DrapeSettings;
 use crate::error::ColliderError;
@@ -145,7 +145,7 @@ pub struct AnimatedVelocity {
 #[derive(Component, Clone, Debug, Default)]
 pub struct ColliderState {
     motion: FrameTracker,
-    current: Option<Collider>,
+    current: Option<SolverCollider>,
     mesh: Option<(AssetId<Mesh>, Vec3, Arc<TriMesh>)>,
     error: Option<ColliderError>,
 }
@@ -153,7 +153,7 @@ pub struct ColliderState {
 impl ColliderState {
     /// The collider as the cloths saw it in the last fixed step; `None` before the first step,
     /// while its mesh loads, or if it is invalid.
-    pub fn collider(&self) -> Option<&Collider> {
+    pub fn collider(&self) -> Option<&SolverCollider> {
         self.current.as_ref()
     }
 
@@ -165,9 +165,9 @@ impl ColliderState {
 
 /// Every valid collider at the current fixed step, as the cloths see them.
 #[derive(Resource, Clone, Debug, Default)]
-pub struct ColliderWorld {
+pub struct StepColliders {
     /// The colliders.
-    pub colliders: Vec<Collider>,
+    pub colliders: Vec<SolverCollider>,
     /// Their entities, in the same order.
     pub entities: Vec<Entity>,
 }
@@ -182,7 +182,7 @@ pub(crate) fn world_pose(global: &GlobalTransform) -> Option<RigidPose> {
     })
 }
 
-/// Moves kinematic colliders and gathers every [`ClothCollider`] into the [`ColliderWorld`]
+/// Moves kinematic colliders and gathers every [`ClothCollider`] into the [`StepColliders`]
 /// in [`DrapeSystems::Colliders`].
 #[derive(Default)]
 pub struct ColliderPlugin;
@@ -191,7 +191,7 @@ impl Plugin for ColliderPlugin {
     fn build(&self, app: &mut App) {
         let schedule = DrapeSchedule::of(app);
         app.register_type::<(ClothCollider, KinematicVelocity, AnimatedVelocity)>()
-            .init_resource::<ColliderWorld>()
+            .init_resource::<StepColliders>()
             .add_systems(
                 schedule,
                 (move_kinematic_colliders, gather_colliders)
@@ -223,27 +223,27 @@ fn scaled_shape(
     scale: Vec3,
     state: &mut ColliderState,
     meshes: &Assets<Mesh>,
-) -> Result<Option<Shape>, ColliderError> {
+) -> Result<Option<SolverShape>, ColliderError> {
     let scale = scale.abs();
     Ok(Some(match shape {
-        ColliderShape::Sphere { radius } => Shape::Sphere {
+        ColliderShape::Sphere { radius } => SolverShape::Sphere {
             radius: radius * scale.max_element(),
         },
         ColliderShape::Capsule {
             radius,
             half_length,
-        } => Shape::Capsule {
+        } => SolverShape::Capsule {
             radius: radius * scale.x.max(scale.z),
             half_length: half_length * scale.y,
         },
-        ColliderShape::Plane => Shape::Plane,
+        ColliderShape::Plane => SolverShape::Plane,
         ColliderShape::TriangleMesh(handle) => {
             let id = handle.id();
             if let Some((built_id, built_scale, mesh)) = &state.mesh
                 && *built_id == id
                 && *built_scale == scale
             {
-                return Ok(Some(Shape::TriangleMesh(mesh.clone())));
+                return Ok(Some(SolverShape::TriangleMesh(mesh.clone())));
             }
             let Some(mesh) = meshes.get(id) else {
                 return Ok(None);
@@ -252,7 +252,7 @@ fn scaled_shape(
             let scaled: Vec<Vec3> = vertices.iter().map(|&v| v * scale).collect();
             let built = Arc::new(TriMesh::new(&scaled, &indices)?);
             state.mesh = Some((id, scale, built.clone()));
-            Shape::TriangleMesh(built)
+            SolverShape::TriangleMesh(built)
         }
     }))
 }
@@ -272,7 +272,7 @@ struct ColliderItem {
 fn gather_colliders(
     mut colliders: Query<ColliderItem>,
     animated_parents: Query<&AnimatedVelocity, Without<ClothCollider>>,
-    mut world: ResMut<ColliderWorld>,
+    mut world: ResMut<StepColliders>,
     meshes: Res<Assets<Mesh>>,
     transforms: TransformHelper,
     time: Res<Time>,
@@ -292,7 +292,7 @@ fn gather_colliders(
             item.child_of,
         );
         let state = &mut *state;
-        let result = (|| -> Result<Option<Collider>, ColliderError> {
+        let result = (|| -> Result<Option<SolverCollider>, ColliderError> {
             let global = transforms
                 .compute_global_transform(entity)
                 .map_err(|_| ColliderError::NonFinitePose)?;
@@ -322,7 +322,7 @@ fn gather_colliders(
             } else {
                 (motion.linear_velocity, motion.angular_velocity)
             };
-            let solver_collider = Collider {
+            let solver_collider = SolverCollider {
                 shape,
                 material: collider.material,
                 margin: collider.margin,

@@ -67,7 +67,7 @@ impl RigidPose {
 
 /// The geometry of a collider, in its local frame.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Shape {
+pub enum SolverShape {
     /// A ball of `radius` about the origin.
     Sphere {
         /// Radius, metres.
@@ -87,7 +87,7 @@ pub enum Shape {
     TriangleMesh(Arc<TriMesh>),
 }
 
-impl Shape {
+impl SolverShape {
     /// Checks the dimensions.
     pub fn validate(&self) -> Result<(), ColliderError> {
         let positive = |name, v: f32| {
@@ -98,8 +98,8 @@ impl Shape {
             }
         };
         match self {
-            Shape::Sphere { radius } => positive("radius", *radius),
-            Shape::Capsule {
+            SolverShape::Sphere { radius } => positive("radius", *radius),
+            SolverShape::Capsule {
                 radius,
                 half_length,
             } => {
@@ -113,7 +113,7 @@ impl Shape {
                     })
                 }
             }
-            Shape::Plane | Shape::TriangleMesh(_) => Ok(()),
+            SolverShape::Plane | SolverShape::TriangleMesh(_) => Ok(()),
         }
     }
 
@@ -124,16 +124,16 @@ impl Shape {
     #[inline]
     pub fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<(f32, Vec3A)> {
         match self {
-            Shape::Sphere { radius } => sphere_distance(p, *radius, reach),
-            Shape::Capsule {
+            SolverShape::Sphere { radius } => sphere_distance(p, *radius, reach),
+            SolverShape::Capsule {
                 radius,
                 half_length,
             } => {
                 let axis_point = Vec3A::new(0.0, p.y.clamp(-half_length, *half_length), 0.0);
                 sphere_distance(p - axis_point, *radius, reach)
             }
-            Shape::Plane => (p.y < reach).then_some((p.y, Vec3A::Y)),
-            Shape::TriangleMesh(mesh) => {
+            SolverShape::Plane => (p.y < reach).then_some((p.y, Vec3A::Y)),
+            SolverShape::TriangleMesh(mesh) => {
                 let closest = mesh.closest_point(p, reach)?;
                 let side = (p - closest.point).dot(closest.normal);
                 if side >= 0.0 {
@@ -155,19 +155,19 @@ impl Shape {
     /// The local bounds, `None` for the (infinite) plane.
     pub(crate) fn local_bounds(&self) -> Option<Aabb> {
         match self {
-            Shape::Sphere { radius } => Some(Aabb {
+            SolverShape::Sphere { radius } => Some(Aabb {
                 min: Vec3A::splat(-radius),
                 max: Vec3A::splat(*radius),
             }),
-            Shape::Capsule {
+            SolverShape::Capsule {
                 radius,
                 half_length,
             } => Some(Aabb {
                 min: -Vec3A::new(*radius, radius + half_length, *radius),
                 max: Vec3A::new(*radius, radius + half_length, *radius),
             }),
-            Shape::Plane => None,
-            Shape::TriangleMesh(mesh) => Some(mesh.bounds()),
+            SolverShape::Plane => None,
+            SolverShape::TriangleMesh(mesh) => Some(mesh.bounds()),
         }
     }
 }
@@ -225,9 +225,9 @@ impl ContactMaterial {
 /// A collider as the solver sees it over one fixed step: its shape, its material, and its
 /// motion from `start` to `end` with the velocity used for contacts.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Collider {
+pub struct SolverCollider {
     /// The geometry.
-    pub shape: Shape,
+    pub shape: SolverShape,
     /// Friction and restitution.
     pub material: ContactMaterial,
     /// Particles are kept this far outside the surface, on top of the cloth's thickness,
@@ -243,9 +243,9 @@ pub struct Collider {
     pub angular_velocity: Vec3A,
 }
 
-impl Collider {
+impl SolverCollider {
     /// A collider at rest at `pose`.
-    pub fn fixed(shape: Shape, pose: RigidPose) -> Self {
+    pub fn fixed(shape: SolverShape, pose: RigidPose) -> Self {
         Self {
             shape,
             material: ContactMaterial::default(),
@@ -264,7 +264,7 @@ impl Collider {
         Self {
             material,
             ..Self::fixed(
-                Shape::Plane,
+                SolverShape::Plane,
                 RigidPose {
                     translation: point,
                     rotation: Quat::from_rotation_arc(Vec3A::Y.into(), normal.into()),
@@ -325,7 +325,7 @@ impl Collider {
     }
 
     /// The signed distance of the world point `p` to the surface at the end of the step (see
-    /// [`Shape::signed_distance`]).
+    /// [`SolverShape::signed_distance`]).
     pub fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<f32> {
         let local = self.end.inverse_transform_point(p);
         self.shape.signed_distance(local, reach).map(|(d, _)| d)

@@ -62,7 +62,7 @@ fn drag_cloth(
         if let Some((entity, _, _)) = drag.held.take()
             && let Ok((_, mut simulation)) = cloths.get_mut(entity)
         {
-            simulation.sim_mut().release();
+            simulation.solver_mut().release();
         }
         return;
     }
@@ -73,7 +73,7 @@ fn drag_cloth(
         // The nearest hit over every cloth, with a pick radius growing with distance.
         let mut best: Option<(Entity, u32, f32)> = None;
         for (entity, simulation) in &cloths {
-            let positions = &simulation.sim().state().positions;
+            let positions = &simulation.solver().state().positions;
             let far = positions
                 .iter()
                 .map(|p| Vec3::from(*p).distance(ray.origin))
@@ -87,9 +87,9 @@ fn drag_cloth(
         }
         if let Some((entity, particle, _)) = best
             && let Ok((_, mut simulation)) = cloths.get_mut(entity)
-            && simulation.sim_mut().grab(particle)
+            && simulation.solver_mut().grab(particle)
         {
-            let at = Vec3::from(simulation.sim().state().positions[particle as usize]);
+            let at = Vec3::from(simulation.solver().state().positions[particle as usize]);
             drag.held = Some((entity, particle, at));
         }
     }
@@ -98,7 +98,7 @@ fn drag_cloth(
         if let Some(distance) = ray.intersect_plane(anchor, facing)
             && let Ok((_, mut simulation)) = cloths.get_mut(entity)
         {
-            simulation.sim_mut().drag_to(ray.get_point(distance));
+            simulation.solver_mut().drag_to(ray.get_point(distance));
         }
     }
 }

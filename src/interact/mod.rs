@@ -1,6 +1,6 @@
 //! Interaction: picking cloth particles with a ray ([`pick`]); dragging them is
-//! [`crate::cloth::ClothSim::grab`], [`crate::cloth::ClothSim::drag_to`] and
-//! [`crate::cloth::ClothSim::release`]; with the `render` feature, `drag::ClothDragPlugin`
+//! [`crate::cloth::ClothSolver::grab`], [`crate::cloth::ClothSolver::drag_to`] and
+//! [`crate::cloth::ClothSolver::release`]; with the `render` feature, `drag::ClothDragPlugin`
 //! does it with the mouse (debug colours are `crate::cloth::debug_colors`); with `render`, collider
 //! gizmos (`gizmos::ColliderGizmoPlugin`); with `egui`, the settings panel
 //! (`panel::DrapePanelPlugin`); with `render`, whether the renderer can start at all

@@ -180,7 +180,7 @@ fn panel(
                 if ui.button("reset cloth").clicked() {
                     simulation.reset();
                 }
-                let sim = simulation.sim();
+                let sim = simulation.solver();
                 let strain = sim.strain();
                 ui.label(format!(
                     "max strain {:.2}%, mean {:.3}%\nenergy {:.4} J (kinetic {:.4})\n\

@@ -784,7 +784,7 @@ fn character_position(app: &mut App) -> Option<Vec3> {
 }
 
 fn measure(app: &mut App, run: &mut PonchoRun) {
-    use bevy_drape::collide::Shape;
+    use bevy_drape::collide::SolverShape;
     let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
     let world = app.world_mut();
     run.divergences += world
@@ -809,14 +809,14 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
     let mut ponchos =
         world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
     for simulation in ponchos.iter(world) {
-        let sim = simulation.sim();
+        let sim = simulation.solver();
         let x = &sim.state().positions;
         run.particles = x.len();
         run.finite &= sim.is_finite();
         run.frozen |= simulation.is_frozen();
 
         for c in sim.colliders() {
-            if matches!(c.shape, Shape::Plane) {
+            if matches!(c.shape, SolverShape::Plane) {
                 continue;
             }
             for &p in x {

@@ -8,9 +8,9 @@ use bevy::math::Vec3;
 
 use bevy_drape::cloth::internals::SelfCollision;
 use bevy_drape::cloth::{
-    ClothModel, ClothSim, Divergence, DivergenceBounds, GridDesc, SolverSettings,
+    ClothModel, ClothSolver, Divergence, DivergenceBounds, GridDesc, SolverSettings,
 };
-use bevy_drape::collide::{Collider, ContactMaterial, RigidPose, Shape};
+use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 
 /// Frame rate of the standard scenes, Hz.
 pub const FRAME_RATE: f32 = 60.0;
@@ -50,10 +50,10 @@ impl HangingCloth {
     }
 
     /// The cloth, pinned, at rest.
-    pub fn build(&self) -> ClothSim {
+    pub fn build(&self) -> ClothSolver {
         let model = ClothModel::grid(&self.grid(), DENSITY)
             .expect("the standard grid is valid by construction");
-        let mut sim = ClothSim::new(model);
+        let mut sim = ClothSolver::new(model);
         sim.set_pins(&self.pins())
             .expect("the standard pins are in range by construction");
         sim
@@ -116,7 +116,7 @@ impl Drape {
     }
 
     /// The sphere and the ground.
-    pub fn colliders(&self) -> [Collider; 2] {
+    pub fn colliders(&self) -> [SolverCollider; 2] {
         let material = ContactMaterial {
             friction: Self::FRICTION,
             restitution: 0.0,
@@ -125,13 +125,13 @@ impl Drape {
             translation: translation.into(),
             ..RigidPose::IDENTITY
         };
-        let mut sphere = Collider::fixed(
-            Shape::Sphere {
+        let mut sphere = SolverCollider::fixed(
+            SolverShape::Sphere {
                 radius: Self::RADIUS,
             },
             at(self.sphere_centre()),
         );
-        let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
+        let mut ground = SolverCollider::fixed(SolverShape::Plane, RigidPose::IDENTITY);
         for c in [&mut sphere, &mut ground] {
             c.material = material;
             c.margin = Self::MARGIN;
@@ -140,12 +140,12 @@ impl Drape {
     }
 
     /// The cloth at rest above the sphere, with the colliders set.
-    pub fn build(&self) -> ClothSim {
+    pub fn build(&self) -> ClothSolver {
         let height = 2.0 * Self::RADIUS + 0.5;
         let grid = GridDesc::square(1.0, self.n, Vec3::new(0.0, height, 0.0));
         let model =
             ClothModel::grid(&grid, DENSITY).expect("the standard grid is valid by construction");
-        let mut sim = ClothSim::new(model);
+        let mut sim = ClothSolver::new(model);
         sim.set_colliders(&self.colliders());
         sim
     }
@@ -222,8 +222,8 @@ impl SheetDrop {
     }
 
     /// The ground.
-    pub fn ground(&self) -> Collider {
-        let mut ground = Collider::fixed(Shape::Plane, RigidPose::IDENTITY);
+    pub fn ground(&self) -> SolverCollider {
+        let mut ground = SolverCollider::fixed(SolverShape::Plane, RigidPose::IDENTITY);
         ground.material = ContactMaterial {
             friction: Self::FRICTION,
             restitution: 0.0,
@@ -233,10 +233,10 @@ impl SheetDrop {
     }
 
     /// The cloth at rest, with the ground set.
-    pub fn build(&self) -> ClothSim {
+    pub fn build(&self) -> ClothSolver {
         let model = ClothModel::grid(&self.grid(), DENSITY)
             .expect("the standard grid is valid by construction");
-        let mut sim = ClothSim::new(model);
+        let mut sim = ClothSolver::new(model);
         sim.set_colliders(&[self.ground()]);
         sim
     }
@@ -266,7 +266,7 @@ impl SheetDrop {
 
 /// The distance between the closest two particles of `sim` that share no edge, if any are
 /// within `within` of each other.
-pub fn closest_non_adjacent(sim: &ClothSim, within: f32) -> Option<f32> {
+pub fn closest_non_adjacent(sim: &ClothSolver, within: f32) -> Option<f32> {
     let mut tables = SelfCollision::new(sim.model(), Some(within))?;
     let x = &sim.state().positions;
     tables.find_pairs(x, 0.0);
@@ -286,7 +286,7 @@ pub struct SheetDropRun {
     /// Whether every position stayed finite.
     pub finite: bool,
     /// The cloth at the end.
-    pub sim: ClothSim,
+    pub sim: ClothSolver,
 }
 
 /// The outcome of one S2 run.
@@ -302,7 +302,7 @@ pub struct DrapeRun {
     /// Whether the state stayed finite throughout.
     pub finite: bool,
     /// The cloth at the end.
-    pub sim: ClothSim,
+    pub sim: ClothSolver,
 }
 
 /// Every frame of a run of S1.
@@ -351,7 +351,7 @@ pub struct SceneRun {
     /// The frame (from 1) at which the cloth diverged and how; the run stopped there.
     pub divergence: Option<(u32, Divergence)>,
     /// The cloth at the end.
-    pub sim: ClothSim,
+    pub sim: ClothSolver,
 }
 
 impl SceneRun {

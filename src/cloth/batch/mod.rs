@@ -88,7 +88,7 @@ impl Batch {
     }
 }
 
-/// A list of two-particle constraints grouped into batches of [`LANES`] (see the module
+/// A list of two-particle constraints grouped into batches of `LANES` (see the module
 /// documentation).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PairBatches {
@@ -109,7 +109,7 @@ impl PairBatches {
     /// Batches `pairs` (particle indices, each with its length), keeping the list's order as
     /// closely as batches allow. With `moves_b` false, the second particle of a pair is an
     /// anchor that is only read (a pin, as for tethers), so pairs may share it. Pairs with an
-    /// index at or past `particle_count` (or [`MAX_PARTICLES`]), or with both ends the same
+    /// index at or past `particle_count` (or `MAX_PARTICLES`), or with both ends the same
     /// particle, are left out (they constrain nothing). Inverse masses start at zero: call
     /// [`PairBatches::set_weights`] before projecting.
     pub fn new(
@@ -285,8 +285,8 @@ impl PairBatches {
     }
 
     /// Projects every batch as the unilateral limits `|x_a - x_b| <= length` (stiffness 1,
-    /// see [`super::stretch_limits::project_stretch_limit`]); with `moves_b` false (tethers,
-    /// see [`super::constraints::project_tether`]) only `a` moves. A pair whose inverse
+    /// see `stretch_limits.rs`); with `moves_b` false (tethers,
+    /// see `constraints.rs`) only `a` moves. A pair whose inverse
     /// masses sum to zero is left alone. Does nothing if `x` is too short.
     pub fn project_limits(&self, x: &mut [Vec3A]) {
         if x.len() < self.particles {

@@ -1,9 +1,9 @@
-//! What can be read off a [`ClothSim`]: strain, finiteness and divergence, its rigid motion,
+//! What can be read off a [`ClothSolver`]: strain, finiteness and divergence, its rigid motion,
 //! its energies.
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::ClothSim;
+use super::ClothSolver;
 use crate::cloth::damping::RigidMotion;
 use crate::cloth::model::EdgeKind;
 use crate::cloth::settings::DivergenceBounds;
@@ -17,7 +17,7 @@ pub struct StrainStats {
     pub mean: f32,
 }
 
-/// Why a cloth counts as diverged (see [`ClothSim::divergence`]).
+/// Why a cloth counts as diverged (see [`ClothSolver::divergence`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Divergence {
     /// A position or velocity is NaN or infinite.
@@ -44,7 +44,7 @@ impl std::fmt::Display for Divergence {
     }
 }
 
-impl ClothSim {
+impl ClothSolver {
     /// The strain `|len - rest| / rest` of every structural edge, in the model's order.
     pub fn edge_strains(&self) -> impl Iterator<Item = f32> + '_ {
         let x = &self.state.positions;

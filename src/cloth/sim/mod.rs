@@ -1,4 +1,4 @@
-//! [`ClothSim`]: one cloth's model, state, pins and solver scratch, and its fixed step. The
+//! [`ClothSolver`]: one cloth's model, state, pins and solver scratch, and its fixed step. The
 //! substep pipeline every solver method runs through is in `step.rs`, made of the passes in
 //! `passes.rs`; what can be read off a cloth is in `diagnostics.rs`.
 
@@ -16,7 +16,7 @@ use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
 use crate::collide::contact::{Contact, ContactScratch};
-use crate::collide::{Collider, FrameStep};
+use crate::collide::{FrameStep, SolverCollider};
 use crate::error::ClothError;
 
 mod diagnostics;
@@ -55,9 +55,9 @@ struct SpringScratch {
 }
 
 /// One simulated cloth: its [`ClothModel`], its [`ClothState`], its pins and the solver's
-/// scratch memory. [`ClothSim::step`] advances it by one fixed step without allocating.
+/// scratch memory. [`ClothSolver::step`] advances it by one fixed step without allocating.
 #[derive(Clone, Debug)]
-pub struct ClothSim {
+pub struct ClothSolver {
     model: ClothModel,
     state: ClothState,
     pins: Vec<Pin>,
@@ -87,7 +87,7 @@ pub struct ClothSim {
     curved_pairs: Vec<BendingPair>,
     springs: Option<SpringScratch>,
     last_substeps: u32,
-    colliders: Vec<Collider>,
+    colliders: Vec<SolverCollider>,
     contacts: ContactScratch,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
@@ -109,7 +109,7 @@ pub struct ClothSim {
     jacobi: JacobiScratch,
 }
 
-impl ClothSim {
+impl ClothSolver {
     /// A cloth at rest in its model's rest shape, with no pins.
     pub fn new(mut model: ClothModel) -> Self {
         let state = ClothState::at_rest(&model);
@@ -191,7 +191,7 @@ impl ClothSim {
     }
 
     /// Grabs `particle`: from now on it is held like a pin (inverse mass 0) and moved to
-    /// [`ClothSim::drag_to`]'s goal over each step, until [`ClothSim::release`]. Grabbing
+    /// [`ClothSolver::drag_to`]'s goal over each step, until [`ClothSolver::release`]. Grabbing
     /// another particle releases the first. Returns `false` if the particle does not exist.
     pub fn grab(&mut self, particle: u32) -> bool {
         let Some(&p) = self.state.positions.get(particle as usize) else {
@@ -252,7 +252,7 @@ impl ClothSim {
     }
 
     /// Replaces the colliders the cloth meets in the next steps (see [`crate::collide`]).
-    pub fn set_colliders(&mut self, colliders: &[Collider]) {
+    pub fn set_colliders(&mut self, colliders: &[SolverCollider]) {
         self.colliders.clear();
         self.colliders.extend_from_slice(colliders);
     }
@@ -260,7 +260,7 @@ impl ClothSim {
     /// Carries the cloth along with the frame it follows (a character) over the coming step,
     /// so that it feels only `inertia` of the frame's world motion: `1` is physical (nothing
     /// is carried), `0` simulates the cloth as if it lived in the frame. Call after
-    /// [`ClothSim::set_colliders`] and the pin targets, before [`ClothSim::step`].
+    /// [`ClothSolver::set_colliders`] and the pin targets, before [`ClothSolver::step`].
     ///
     /// The carried part, `s = 1 - inertia` of the step's pose change (see [`FrameStep`]),
     /// moves positions, previous positions and pins rigidly and turns velocities, so the
@@ -307,7 +307,7 @@ impl ClothSim {
     }
 
     /// The colliders.
-    pub fn colliders(&self) -> &[Collider] {
+    pub fn colliders(&self) -> &[SolverCollider] {
         &self.colliders
     }
 
@@ -340,7 +340,7 @@ impl ClothSim {
         })
     }
 
-    /// The substeps the last [`ClothSim::step`] took (more than `settings.substeps` with
+    /// The substeps the last [`ClothSolver::step`] took (more than `settings.substeps` with
     /// automatic substeps; with [`SolverSettings::adaptive`], every substep run, those of an
     /// undone attempt included).
     pub fn last_substeps(&self) -> u32 {
@@ -358,8 +358,8 @@ impl ClothSim {
     }
 
     /// The state, for setting positions or velocities directly. Inverse masses are managed by
-    /// the sim (pins, density): change them through [`ClothSim::set_pins`] and
-    /// [`ClothSim::set_density`].
+    /// the sim (pins, density): change them through [`ClothSolver::set_pins`] and
+    /// [`ClothSolver::set_density`].
     pub fn state_mut(&mut self) -> &mut ClothState {
         &mut self.state
     }
@@ -560,7 +560,7 @@ impl ClothSim {
     /// One fixed step under [`SolverSettings::adaptive`]: the step runs at the chosen count;
     /// if it ends above the target strain it is undone and run again with more substeps
     /// (up to the maximum), so every step that can meet the target does. The count then
-    /// goes down as [`AdaptiveSubsteps::next`] says. [`ClothSim::last_substeps`] counts every
+    /// goes down as [`AdaptiveSubsteps::next`] says. [`ClothSolver::last_substeps`] counts every
     /// substep run, undone ones included (the step's cost).
     fn step_adaptive(
         &mut self,

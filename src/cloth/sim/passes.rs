@@ -1,4 +1,4 @@
-//! The projection and velocity passes the steps of [`ClothSim`](super::ClothSim) are made of,
+//! The projection and velocity passes the steps of [`ClothSolver`](super::ClothSolver) are made of,
 //! over plain slices.
 
 use bevy::math::Vec3A;
@@ -10,7 +10,7 @@ use crate::cloth::settings::{DampingMode, SolverSettings};
 
 /// Edges and stretch limits are swept as this many interleaved streams, each a contiguous
 /// part of the sorted list: consecutive projections then touch distant particles and overlap
-/// in the processor, while each stream keeps its lexicographic order (see `ClothSim::new`).
+/// in the processor, while each stream keeps its lexicographic order (see `ClothSolver::new`).
 /// Measured on S1 at N = 64, 8 x 4, before the limits overlapped: 1 stream 15.6 ms per frame
 /// and 0.89% max strain, 2 streams 12.9 ms and 0.92%, 4 streams 12.5 ms and 1.35%.
 pub(super) const STREAMS: usize = 2;

@@ -1,4 +1,4 @@
-//! The substep pipeline of [`ClothSim::step`], one sequence for every solver method. Each
+//! The substep pipeline of [`ClothSolver::step`], one sequence for every solver method. Each
 //! substep of length `h`:
 //!
 //! 1. predict: XPBD and PBD `x += h v + h^2/2 a` (velocity Verlet); the spring methods take
@@ -19,7 +19,7 @@
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
-use super::ClothSim;
+use super::ClothSolver;
 use super::passes::{damp, project_edges, project_edges_jacobi};
 use crate::cloth::constraints::{Projection, project_bending, project_mutual_tether};
 use crate::cloth::mass_spring::auto_substeps;
@@ -74,7 +74,7 @@ impl Projections {
     }
 }
 
-impl ClothSim {
+impl ClothSolver {
     /// One fixed step of `settings.method` at `settings.substeps` (more with automatic
     /// substeps), through the pipeline of the module docs.
     pub(super) fn step_substeps(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
