@@ -18,6 +18,7 @@ use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::FixedPostUpdate;
 
 use cloth::plugin::ClothPlugin;
+use cloth::wind_plugin::WindPlugin;
 use collide::plugin::ColliderPlugin;
 use schedule::DrapeSchedulePlugin;
 use skeleton::plugin::SkeletonPlugin;
@@ -31,9 +32,10 @@ pub mod prelude {
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
         ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
+    pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
     pub use crate::cloth::{
-        ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc, SolverMethod,
-        SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
+        AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,
+        SolverMethod, SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
     };
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{
@@ -59,6 +61,7 @@ pub mod prelude {
 /// | [`DrapeSchedulePlugin`] | orders the [`schedule::DrapeSystems`] sets |
 /// | [`SkeletonPlugin`] | loads clips, spawns bone entities, plays clips on [`skeleton::plugin::Skeleton`]s |
 /// | [`ColliderPlugin`] | moves kinematic colliders and hands every [`collide::plugin::ClothCollider`] to the cloths |
+/// | [`WindPlugin`] | gathers the [`cloth::wind_plugin::Wind`] and every [`cloth::wind_plugin::WindSource`] for the cloths' air |
 /// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
 pub struct DrapePlugins {
     schedule: Interned<dyn ScheduleLabel>,
@@ -87,6 +90,7 @@ impl PluginGroup for DrapePlugins {
             })
             .add(SkeletonPlugin)
             .add(ColliderPlugin)
+            .add(WindPlugin)
             .add(ClothPlugin)
     }
 }

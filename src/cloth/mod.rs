@@ -1,6 +1,7 @@
 //! The cloth core: model, state, constraints and the XPBD step, free of ECS types, and the
 //! Bevy plugin that drives it ([`plugin`]).
 
+pub(crate) mod air;
 // The kernels `internals` exposes are reached from outside only with that feature.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod batch;
@@ -26,7 +27,9 @@ pub(crate) mod state;
 pub(crate) mod stretch_limits;
 pub(crate) mod volume;
 pub(crate) mod weld;
+pub mod wind_plugin;
 
+pub use air::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
 pub use damping::RigidMotion;
 pub use debug_colors::DebugColorMode;
 pub use garment::{PonchoDesc, to_obj};

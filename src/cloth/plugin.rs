@@ -1,6 +1,7 @@
 //! The Bevy side of the cloth: components, resources and the thin systems that build, step and
 //! draw [`ClothSolver`]s.
 
+use super::wind_plugin::StepWind;
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetServer, Assets, LoadState};
 use bevy::ecs::query::QueryData;
@@ -478,7 +479,7 @@ fn step_cloths(
     time: Res<Time>,
     transforms: TransformHelper,
     mut diverged: MessageWriter<ClothDiverged>,
-    colliders: Option<Res<StepColliders>>,
+    (colliders, wind): (Option<Res<StepColliders>>, Option<Res<StepWind>>),
 ) {
     let dt = time.delta_secs();
     for (entity, cloth, mut simulation, settings) in &mut cloths {
@@ -574,6 +575,11 @@ fn step_cloths(
             }
         }
 
+        if settings.solver.air.is_some()
+            && let Some(wind) = &wind
+        {
+            sim.set_wind(&wind.0, time.elapsed_secs());
+        }
         sim.step(&settings.solver, drape.gravity, dt);
         if settings.solver.volume.is_some()
             && let Some(err) = sim.volume_error()

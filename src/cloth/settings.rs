@@ -1,5 +1,6 @@
 //! Solver settings: plain data shared by the core and the Bevy components.
 
+use super::air::AirSettings;
 use super::mass_spring::SpringSettings;
 use super::volume::VolumeSettings;
 use crate::error::ClothError;
@@ -146,6 +147,13 @@ pub struct SolverSettings {
     /// `substeps` throughout (XPBD, PBD and hybrid; see [`AdaptiveSubsteps`]). `substeps` is
     /// where the count starts. Default: `None`.
     pub adaptive: Option<AdaptiveSubsteps>,
+    /// Drag and lift from the air on every triangle, moved by the wind the solver is given
+    /// ([`crate::cloth::ClothSolver::set_wind`]; the plugins give it the [`Wind`] resource
+    /// and the [`WindSource`] entities); every method. `None` is vacuum. Default: `None`.
+    ///
+    /// [`Wind`]: crate::cloth::wind_plugin::Wind
+    /// [`WindSource`]: crate::cloth::wind_plugin::WindSource
+    pub air: Option<AirSettings>,
 }
 
 /// An adaptive substep budget: the fewest substeps per fixed step that keep the cloth's largest
@@ -243,6 +251,7 @@ impl Default for SolverSettings {
             self_collision: false,
             volume: None,
             adaptive: None,
+            air: None,
         }
     }
 }
@@ -304,6 +313,9 @@ impl SolverSettings {
                 SolverMethod::MassSpring | SolverMethod::Hybrid => ("method", 0.0, true, ""),
             },
         ];
+        if let Some(air) = self.air {
+            air.validate()?;
+        }
         if let Some(volume) = self.volume {
             if !(volume.pressure.is_finite() && volume.pressure > 0.0) {
                 return Err(ClothError::InvalidSetting {

@@ -4,6 +4,7 @@
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
+use super::air::{GustLattice, WindField, air_accelerations};
 use super::batch::PairBatches;
 use super::constraints::Tether;
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
@@ -107,11 +108,18 @@ pub struct ClothSolver {
     adaptive_backup: ClothState,
     /// Buffers of the order-free edge projection (closed cloth).
     jacobi: JacobiScratch,
+    /// The wind at each triangle's centroid, from the last [`ClothSolver::set_wind`].
+    triangle_wind: Vec<Vec3A>,
+    /// The air's acceleration of each particle over the current step.
+    air_acceleration: Vec<Vec3A>,
+    /// Gust velocities on the lattice of [`ClothSolver::set_wind`].
+    gust_samples: Vec<Vec3A>,
 }
 
 impl ClothSolver {
     /// A cloth at rest in its model's rest shape, with no pins.
     pub fn new(mut model: ClothModel) -> Self {
+        let model_triangles = model.triangles.len();
         let state = ClothState::at_rest(&model);
         let n = model.particle_count();
         // Lines run along structural edges only: a woven cloth stretches along its bias
@@ -187,6 +195,29 @@ impl ClothSolver {
             adaptive_calm: 0,
             adaptive_backup: ClothState::default(),
             jacobi: JacobiScratch::default(),
+            triangle_wind: vec![Vec3A::ZERO; model_triangles],
+            air_acceleration: vec![Vec3A::ZERO; n],
+            gust_samples: Vec::with_capacity(GustLattice::MAX_SAMPLES),
+        }
+    }
+
+    /// Samples `wind` at time `t` (seconds) at every triangle's centroid for the coming steps
+    /// (the air of [`SolverSettings::air`] moves with it). Until it is called the air is
+    /// still. Gusts are sampled on a lattice of at most 4 x 4 x 4 points over the cloth's
+    /// bounds, a quarter of a gust's length apart or more, and interpolated: they vary
+    /// smoothly over that length, and 64 samples cost less than one per triangle.
+    pub fn set_wind(&mut self, wind: &WindField, t: f32) {
+        let x = &self.state.positions;
+        let lattice = GustLattice::sample(&wind.gusts, x, t, &mut self.gust_samples);
+        let base = Vec3A::from(wind.velocity);
+        for (sample, tri) in self.triangle_wind.iter_mut().zip(&self.model.triangles) {
+            let [a, b, c] = tri.map(|i| x[i as usize]);
+            let centroid = (a + b + c) * (1.0 / 3.0);
+            let mut v = base + lattice.map_or(Vec3A::ZERO, |l| l.at(centroid, &self.gust_samples));
+            for source in &wind.sources {
+                v += Vec3A::from(source.velocity_at(centroid.into()));
+            }
+            *sample = if v.is_finite() { v } else { Vec3A::ZERO };
         }
     }
 
@@ -523,6 +554,20 @@ impl ClothSolver {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
         self.sync_weights();
+        if let Some(air) = settings.air.filter(|air| air.is_active()) {
+            let state = &self.state;
+            air_accelerations(
+                &air,
+                &self.model.triangles,
+                &state.positions,
+                &state.velocities,
+                &state.inverse_masses,
+                &self.triangle_wind,
+                self.model.density,
+                dt,
+                &mut self.air_acceleration,
+            );
+        }
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);

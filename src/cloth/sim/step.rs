@@ -1,7 +1,8 @@
 //! The substep pipeline of [`ClothSolver::step`], one sequence for every solver method. Each
 //! substep of length `h`:
 //!
-//! 1. predict: XPBD and PBD `x += h v + h^2/2 a` (velocity Verlet); the spring methods take
+//! 1. predict: the air's acceleration (`air.rs`, taken once per step) as a kick
+//!    `v += h a_air`; then XPBD and PBD `x += h v + h^2/2 a` (velocity Verlet); the spring methods take
 //!    the spring forces `f` at the substep's start, `v += h (a + f / m)`, `x += h v`
 //!    (symplectic Euler; the hybrid's springs are the shear and bend ones only). Pins move to
 //!    their interpolated targets.
@@ -12,7 +13,8 @@
 //!    iteration only: bending is soft and its projection costs about ten distance
 //!    projections), self-collision, colliders (planes included: see `collide/contact.rs`).
 //! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
-//!    `v = (x - x_prev) / h`; mass-spring keeps the integrated ones (its self-collision and
+//!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
+//!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its self-collision and
 //!    contacts correct them directly).
 //! 4. contacts: restitution and Coulomb friction relative to each collider's surface
 //!    (`collide/contact.rs`); then damping.
@@ -129,6 +131,10 @@ impl ClothSolver {
         let respond_inv_h = if mass_spring { 0.0 } else { inv_h };
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
+        let air = settings
+            .air
+            .is_some_and(|air| air.is_active())
+            .then_some(&self.air_acceleration);
         let bounce_threshold = 2.0 * a.length() * h;
 
         let ClothState {
@@ -147,7 +153,14 @@ impl ClothSolver {
             .begin_step(colliders, x.len(), settings.thickness);
 
         for s in 0..substeps {
-            // 1. Predict.
+            // 1. Predict (the air's share first, as a kick: it is constant over the step).
+            if let Some(air) = air {
+                for ((v, &air), &w) in v.iter_mut().zip(air).zip(&*w) {
+                    if w > 0.0 {
+                        *v += air * h;
+                    }
+                }
+            }
             let half_h2_a = a * (0.5 * h * h);
             match springs.as_deref_mut() {
                 None => {
@@ -270,8 +283,15 @@ impl ClothSolver {
             //    difference of two nearly equal positions (in f32 that difference loses
             //    millimetres per second of fall).
             if hybrid {
+                // v = (x - x_prev) / h, computed as v + (x - x_pred) / h with the prediction
+                // recomputed bit for bit, as for XPBD below.
                 for i in 0..x.len() {
-                    v[i] = (x[i] - x_prev[i]) * inv_h;
+                    if w[i] > 0.0 {
+                        let predicted = x_prev[i] + v[i] * h;
+                        v[i] += (x[i] - predicted) * inv_h;
+                    } else {
+                        v[i] = (x[i] - x_prev[i]) * inv_h;
+                    }
                 }
             } else if !mass_spring {
                 let h_a = a * h;
