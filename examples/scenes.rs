@@ -6,11 +6,16 @@
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1]
+//!     [--wind 10] [--gusts 0]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
 //! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
 //! `ClothSettings::inertia`.
+//!
+//! `wind` is the flag (hanging in the XY plane) in a wind of `--wind` m/s across it, along
+//! +Z, with `--gusts` m/s of gusts; it
+//! reports the frame's cost with air and, stepped from the same states, without.
 //!
 //! `--k-*` set the spring stiffnesses (N/m) of the mass-spring and hybrid methods;
 //! `--auto-substeps` lets them raise the substep count to their stability bound.
@@ -18,10 +23,12 @@
 //! `ms_per_frame` is the median over all frames of all runs (model build excluded); the other
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
-use bevy_drape::cloth::{PonchoDesc, SolverMethod, SolverSettings};
+use bevy::math::Vec3;
+use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
 use drape_scenes::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
 use drape_scenes::scenes::{
-    Drape, DrapeRun, FRAME_RATE, HangingCloth, SceneRun, SheetDrop, SheetDropRun, median,
+    Drape, DrapeRun, FRAME_RATE, Flag, FlagRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun,
+    median,
 };
 
 fn main() {
@@ -40,11 +47,14 @@ fn run() -> Result<(), String> {
     let mut settings = match scene.as_str() {
         "drop" => SheetDrop::settings(false),
         "s3" => PonchoScene::default().solver,
+        "wind" => Flag::settings(),
         _ => SolverSettings::default(),
     };
     let mut wave = true;
     let mut motion = CharacterMotion::InPlace;
     let mut inertia = 1.0f32;
+    let mut wind_speed = 10.0f32;
+    let mut gusts = 0.0f32;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = "xpbd".to_string();
     let mut stiffness = 1.0f32;
@@ -77,6 +87,9 @@ fn run() -> Result<(), String> {
                 ))?;
             }
             "--inertia" => inertia = parse(&value()?)?,
+            "--wind" => wind_speed = parse(&value()?)?,
+            "--gusts" => gusts = parse(&value()?)?,
+            "--no-air" => settings.air = None,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -214,7 +227,48 @@ fn run() -> Result<(), String> {
             println!("{}", run.json(&settings));
             Ok(())
         }
-        other => Err(format!("unknown scene {other} (s1, s2, s3, drop)")),
+        "wind" => {
+            let scene = Flag {
+                n,
+                wind: Vec3::new(0.0, 0.0, wind_speed),
+                gusts: Gusts {
+                    strength: gusts,
+                    ..Gusts::default()
+                },
+            };
+            let mut with_air = Vec::new();
+            let mut without = Vec::new();
+            let mut air = Vec::new();
+            let mut last: Option<FlagRun> = None;
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames);
+                with_air.extend_from_slice(&run.frame_seconds);
+                without.extend_from_slice(&run.no_air_seconds);
+                air.extend_from_slice(&run.air_seconds);
+                last = Some(run);
+            }
+            let run = last.expect("at least one run");
+            let (ms, ms_still) = (median(&with_air) * 1e3, median(&without) * 1e3);
+            let direction = run.mean_direction(60);
+            let heading = direction.z.atan2(direction.x).to_degrees();
+            let droop = direction
+                .y
+                .atan2(direction.with_y(0.0).length())
+                .to_degrees();
+            println!(
+                "{{\"scene\":\"wind\",\"n\":{n},\"particles\":{},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"wind\":{wind_speed},\"gusts\":{gusts},\"ms_per_frame\":{ms:.4},\"ms_without_air\":{ms_still:.4},\"ms_air\":{:.4},\"air_share\":{:.4},\"runs\":{runs},\"frames\":{frames},\"heading_deg\":{heading:.2},\"droop_deg\":{droop:.2},\"strain_median\":{:.6},\"strain_max\":{:.6},\"finite\":{}}}",
+                run.sim.state().positions.len(),
+                settings.substeps,
+                settings.iterations,
+                median(&air) * 1e3,
+                run.air_share(),
+                run.strain().0,
+                run.strain().1,
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!("unknown scene {other} (s1, s2, s3, drop, wind)")),
     }
 }
 

@@ -27,7 +27,7 @@
 
 use std::f32::consts::TAU;
 
-use bevy::math::{Vec3, Vec3A};
+use bevy::math::{Mat3A, Vec3, Vec3A};
 use bevy::reflect::Reflect;
 
 use crate::error::ClothError;
@@ -82,26 +82,28 @@ impl AirSettings {
 /// The aerodynamic force on one triangle whose edges' cross product is `cross` (its length
 /// twice the area, its direction the normal), moving at `relative_velocity` through the air.
 /// Zero for a degenerate or edge-on triangle, no relative motion, or anything not finite.
+///
+/// With `k = cross . u` the module docs' forces are, without normalising anything,
+/// drag `-(rho C_d / 4) |k| u` and lift
+/// `-(rho C_l / 4) k (|u|^2 cross - k u) / (|cross| |u|)`: one root per triangle.
+#[inline]
 pub(crate) fn triangle_force(air: &AirSettings, cross: Vec3A, relative_velocity: Vec3A) -> Vec3A {
-    let speed_squared = relative_velocity.length_squared();
-    let twice_area = cross.length();
-    if !(speed_squared > 1e-12
-        && speed_squared.is_finite()
-        && twice_area > 1e-12
-        && twice_area.is_finite())
-    {
+    let u = relative_velocity;
+    let k = cross.dot(u);
+    let u2 = u.length_squared();
+    let c2 = cross.length_squared();
+    let denominator = (c2 * u2).sqrt();
+    if !(denominator > 1e-20 && denominator.is_finite()) {
         return Vec3A::ZERO;
     }
-    let speed = speed_squared.sqrt();
-    let flow = relative_velocity / speed;
-    let normal = cross / twice_area;
-    let cos = normal.dot(flow);
-    let c = cos.abs();
-    // The normal turned to face along the flow: both faces alike.
-    let front = if cos >= 0.0 { normal } else { -normal };
-    let q = 0.5 * air.density * 0.5 * twice_area * speed_squared * c;
-    // `front - c flow` has length `s`: the lift is `q C_l s` along its opposite.
-    -flow * (q * air.drag) - (front - flow * c) * (q * air.lift)
+    let drag = u * (-0.25 * air.density * air.drag * k.abs());
+    let lift = (cross * u2 - u * k) * (-0.25 * air.density * air.lift * k / denominator);
+    let force = drag + lift;
+    if force.is_finite() {
+        force
+    } else {
+        Vec3A::ZERO
+    }
 }
 
 /// A smooth, seeded variation of the wind in time and space: a sum of travelling waves whose
@@ -113,7 +115,7 @@ pub struct Gusts {
     /// How often gusts come, Hz (the waves' frequencies spread from half to one and a half
     /// times this). Default: `0.5`.
     pub frequency: f32,
-    /// The size of a gust, metres (the waves' wavelength). Default: `4.0`.
+    /// The size of a gust, metres (half the waves' wavelength). Default: `4.0`.
     pub length: f32,
     /// Picks the waves: the same seed gives the same gusts. Default: `1`.
     pub seed: u32,
@@ -136,25 +138,55 @@ const GUST_WAVES: u32 = 6;
 impl Gusts {
     /// The gust velocity at `p` at time `t`.
     pub fn velocity_at(&self, p: Vec3, t: f32) -> Vec3 {
+        self.waves(t)
+            .map_or(Vec3::ZERO, |waves| waves.velocity_at(p))
+    }
+
+    /// The waves at time `t`, for sampling many points; `None` without gusts.
+    fn waves(&self, t: f32) -> Option<GustWaves> {
         if !(self.strength > 0.0 && self.strength.is_finite()) {
-            return Vec3::ZERO;
+            return None;
         }
+        // A gust is half a wave.
         let wavenumber = if self.length > 0.0 {
-            TAU / self.length
+            std::f32::consts::PI / self.length
         } else {
             0.0
         };
-        let mut sum = Vec3::ZERO;
-        for k in 0..GUST_WAVES {
-            let r = |j: u32| unit_random(self.seed, k * 8 + j);
-            let travel = unit_vector(r(0), r(1));
-            let along = unit_vector(r(2), r(3));
-            let frequency = self.frequency * (0.5 + r(4));
-            let phase = TAU * (frequency * t + r(5)) - wavenumber * travel.dot(p);
-            sum += along * phase.sin();
-        }
         // Each wave's mean square is 1/2: the sum's is GUST_WAVES / 2.
-        let v = sum * (self.strength / (GUST_WAVES as f32 / 2.0).sqrt());
+        let amplitude = self.strength / (GUST_WAVES as f32 / 2.0).sqrt();
+        let waves = std::array::from_fn(|k| {
+            let r = |j: u32| unit_random(self.seed, k as u32 * 8 + j);
+            let frequency = self.frequency * (0.5 + r(4));
+            GustWave {
+                wavevector: unit_vector(r(0), r(1)) * wavenumber,
+                along: unit_vector(r(2), r(3)) * amplitude,
+                phase: TAU * (frequency * t + r(5)),
+            }
+        });
+        Some(GustWaves(waves))
+    }
+}
+
+/// One travelling wave of [`Gusts`] at a given time.
+#[derive(Clone, Copy, Debug)]
+struct GustWave {
+    wavevector: Vec3,
+    along: Vec3,
+    phase: f32,
+}
+
+/// The waves of [`Gusts`] at a given time.
+#[derive(Clone, Copy, Debug)]
+struct GustWaves([GustWave; GUST_WAVES as usize]);
+
+impl GustWaves {
+    fn velocity_at(&self, p: Vec3) -> Vec3 {
+        let v = self
+            .0
+            .iter()
+            .map(|w| w.along * (w.phase - w.wavevector.dot(p)).sin())
+            .sum::<Vec3>();
         if v.is_finite() { v } else { Vec3::ZERO }
     }
 }
@@ -178,32 +210,25 @@ fn unit_vector(a: f32, b: f32) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Gusts sampled on a lattice over a cloth's bounds, for interpolation at its triangles.
+/// Gusts over one cloth as a linear field: their value at the centre of the cloth's bounds
+/// and their gradient there (central differences a tenth of a gust's length apart), at a
+/// few multiply-adds per particle. Over a 1 m cloth in gusts 4 m long the error is 4% of
+/// the gusts' strength (root mean square; 17% at worst): the cloth feels the gust's front
+/// pass over it, not its finer shape. The variation it adds is capped at the strength, so a
+/// cloth larger than a gust gets no extrapolated wind at its far end.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct GustLattice {
-    min: Vec3A,
-    /// Lattice points per axis (2 to 4).
-    count: [usize; 3],
-    /// Distance between lattice points per axis (0 along a flat axis).
-    spacing: Vec3A,
+pub(crate) struct GustField {
+    centre: Vec3A,
+    value: Vec3A,
+    gradient: Mat3A,
+    cap: f32,
 }
 
-impl GustLattice {
-    /// The most lattice points.
-    pub(crate) const MAX_SAMPLES: usize = 64;
-
-    /// Samples `gusts` at time `t` over the bounds of `x` into `samples`; `None` if there are
-    /// no gusts or no finite positions.
-    pub(crate) fn sample(
-        gusts: &Gusts,
-        x: &[Vec3A],
-        t: f32,
-        samples: &mut Vec<Vec3A>,
-    ) -> Option<Self> {
-        samples.clear();
-        if !(gusts.strength > 0.0 && gusts.strength.is_finite()) {
-            return None;
-        }
+impl GustField {
+    /// The gusts at time `t` over the bounds of `x`; `None` if there are no gusts or no finite
+    /// positions.
+    pub(crate) fn over(gusts: &Gusts, x: &[Vec3A], t: f32) -> Option<Self> {
+        let waves = gusts.waves(t)?;
         let (mut min, mut max) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
         for p in x.iter().filter(|p| p.is_finite()) {
             min = min.min(*p);
@@ -212,66 +237,23 @@ impl GustLattice {
         if !(min.is_finite() && max.is_finite()) {
             return None;
         }
-        let step = (gusts.length * 0.25).max(1e-3);
-        let extent = max - min;
-        let count = extent
-            .to_array()
-            .map(|e| ((e / step).ceil() as usize + 1).clamp(2, 4));
-        let spacing = Vec3A::new(
-            extent.x / (count[0] - 1) as f32,
-            extent.y / (count[1] - 1) as f32,
-            extent.z / (count[2] - 1) as f32,
-        );
-        for k in 0..count[2] {
-            for j in 0..count[1] {
-                for i in 0..count[0] {
-                    let p = min + spacing * Vec3A::new(i as f32, j as f32, k as f32);
-                    samples.push(gusts.velocity_at(p.into(), t).into());
-                }
-            }
-        }
+        let centre = (min + max) * 0.5;
+        let delta = (gusts.length * 0.1).max(1e-3);
+        let at = |p: Vec3A| Vec3A::from(waves.velocity_at(p.into()));
+        let column =
+            |axis: Vec3A| (at(centre + axis * delta) - at(centre - axis * delta)) / (2.0 * delta);
         Some(Self {
-            min,
-            count,
-            spacing,
+            centre,
+            value: at(centre),
+            gradient: Mat3A::from_cols(column(Vec3A::X), column(Vec3A::Y), column(Vec3A::Z)),
+            cap: gusts.strength,
         })
     }
 
-    /// The gust at `p`, interpolated (trilinearly) from `samples`.
-    pub(crate) fn at(&self, p: Vec3A, samples: &[Vec3A]) -> Vec3A {
-        let mut cell = [0usize; 3];
-        let mut frac = [0.0f32; 3];
-        for axis in 0..3 {
-            let s = self.spacing[axis];
-            let u = if s > 0.0 {
-                ((p[axis] - self.min[axis]) / s).clamp(0.0, (self.count[axis] - 1) as f32)
-            } else {
-                0.0
-            };
-            let c = (u.floor() as usize).min(self.count[axis] - 2);
-            cell[axis] = c;
-            frac[axis] = u - c as f32;
-        }
-        let index = |i: usize, j: usize, k: usize| {
-            (cell[2] + k) * self.count[1] * self.count[0]
-                + (cell[1] + j) * self.count[0]
-                + cell[0]
-                + i
-        };
-        let mut v = Vec3A::ZERO;
-        for k in 0..2 {
-            for j in 0..2 {
-                for i in 0..2 {
-                    let weight = [i, j, k]
-                        .iter()
-                        .zip(frac)
-                        .map(|(&d, f)| if d == 1 { f } else { 1.0 - f })
-                        .product::<f32>();
-                    v += samples.get(index(i, j, k)).copied().unwrap_or(Vec3A::ZERO) * weight;
-                }
-            }
-        }
-        v
+    /// The gust at `p`.
+    #[inline]
+    pub(crate) fn at(&self, p: Vec3A) -> Vec3A {
+        self.value + (self.gradient * (p - self.centre)).clamp_length_max(self.cap)
     }
 }
 
@@ -372,7 +354,7 @@ impl WindField {
 
 /// The acceleration the air gives every particle over the coming step of length `dt`, into
 /// `acceleration` (one per particle): the forces of the module docs, from positions `x`,
-/// velocities `v` and the wind at each triangle's centroid (`wind`, one per triangle), limited
+/// velocities `v` and the wind at each particle (`wind`; a triangle's is its corners' mean), limited
 /// as described there, divided by the particle masses (inverse masses `w`; pinned particles
 /// get none). `density` is the cloth's areal density, for the limit.
 #[allow(clippy::too_many_arguments)]
@@ -388,26 +370,24 @@ pub(crate) fn air_accelerations(
     acceleration: &mut [Vec3A],
 ) {
     acceleration.fill(Vec3A::ZERO);
-    for (t, &wind) in triangles.iter().zip(wind) {
+    // A plate's mass is `density |cross| / 2`: the limit `|F| dt <= |u| m`, squared.
+    let limit_factor = (0.5 * density / dt) * (0.5 * density / dt);
+    for t in triangles {
         let [a, b, c] = t.map(|i| i as usize);
         let cross = (x[b] - x[a]).cross(x[c] - x[a]);
-        let relative = (v[a] + v[b] + v[c]) * (1.0 / 3.0) - wind;
-        let mut force = triangle_force(air, cross, relative);
-        // The velocity change of a plate of the triangle's mass over the step: at most the
-        // relative speed.
-        let mass = density * 0.5 * cross.length();
-        let change = force.length() * dt;
-        let limit = relative.length() * mass;
-        if change > limit {
-            force *= if change > 0.0 { limit / change } else { 0.0 };
-        }
-        if !force.is_finite() {
-            continue;
-        }
-        let share = force * (1.0 / 3.0);
-        for i in [a, b, c] {
-            acceleration[i] += share * w[i];
-        }
+        let relative = (v[a] + v[b] + v[c] - wind[a] - wind[b] - wind[c]) * (1.0 / 3.0);
+        let force = triangle_force(air, cross, relative);
+        let f2 = force.length_squared();
+        let limit2 = relative.length_squared() * cross.length_squared() * limit_factor;
+        // Branch-free: whether a triangle is limited changes from one to the next.
+        let scale = (limit2 / f2.max(f32::MIN_POSITIVE)).sqrt().min(1.0);
+        let share = force * (scale * (1.0 / 3.0));
+        acceleration[a] += share;
+        acceleration[b] += share;
+        acceleration[c] += share;
+    }
+    for (a, &w) in acceleration.iter_mut().zip(w) {
+        *a *= w;
     }
 }
 
@@ -512,6 +492,39 @@ mod tests {
         assert_ne!(gusts.velocity_at(p, 4.0), other.velocity_at(p, 4.0));
         // None asked, none given.
         assert_eq!(Gusts::default().velocity_at(p, 4.0), Vec3::ZERO);
+    }
+
+    #[test]
+    fn the_linear_gust_field_follows_the_gusts_over_a_cloth_smaller_than_a_gust() {
+        // A 1 m cloth of random points, gusts 4 m long, at random times and places.
+        let gusts = Gusts {
+            strength: 5.0,
+            ..Gusts::default()
+        };
+        let mut seed = 3;
+        let (mut worst, mut sum_squares, mut count) = (0.0f32, 0.0f32, 0);
+        for _ in 0..200 {
+            let centre = random_vector(&mut seed) * 20.0;
+            let t = random_vector(&mut seed).x.abs() * 100.0;
+            let x: Vec<Vec3A> = (0..50)
+                .map(|_| centre + random_vector(&mut seed) * 0.5)
+                .collect();
+            let field = GustField::over(&gusts, &x, t).unwrap();
+            for &p in &x {
+                let exact = Vec3A::from(gusts.velocity_at(p.into(), t));
+                let error = (field.at(p) - exact).length();
+                worst = worst.max(error);
+                sum_squares += error * error;
+                count += 1;
+            }
+        }
+        // Second order in the cloth's size over the gust's: a fraction of the strength.
+        let rms = (sum_squares / count as f32).sqrt();
+        println!("linear gust field over a 1 m cloth, 4 m gusts: rms error {rms}, worst {worst}");
+        assert!(rms < 0.1 * gusts.strength, "{rms}");
+        assert!(worst < 0.4 * gusts.strength, "{worst}");
+        assert!(GustField::over(&Gusts::default(), &[Vec3A::ZERO], 0.0).is_none());
+        assert!(GustField::over(&gusts, &[Vec3A::splat(f32::NAN)], 0.0).is_none());
     }
 
     #[test]

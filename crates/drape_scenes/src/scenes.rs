@@ -352,8 +352,10 @@ impl Flag {
     }
 
     /// Runs `frames` frames at [`FRAME_RATE`] with `settings`, giving the solver the wind at
-    /// every frame, and times the air: each frame is also stepped from the same state without
-    /// air (on a copy, not kept), so the air's cost is the difference.
+    /// every frame, and times the air (sampling the wind and the forces). Each frame is also
+    /// stepped from the same state without air (on a copy, not kept): that step differs by
+    /// the air's cost and by what the air changes in the rest of the step (a flag pulled taut
+    /// has more long-range constraints active).
     pub fn run(&self, settings: &SolverSettings, frames: u32) -> FlagRun {
         let mut sim = self.build();
         let wind = self.wind_field();
@@ -365,9 +367,10 @@ impl Flag {
         let mut run = FlagRun {
             frame_seconds: Vec::with_capacity(frames as usize),
             no_air_seconds: Vec::with_capacity(frames as usize),
+            air_seconds: Vec::with_capacity(frames as usize),
             directions: Vec::with_capacity(frames as usize),
             finite: true,
-            max_strain: 0.0,
+            strains: Vec::with_capacity(frames as usize),
             sim: sim.clone(),
         };
         let mut copy = sim.clone();
@@ -378,10 +381,12 @@ impl Flag {
             run.no_air_seconds.push(start.elapsed().as_secs_f64());
             let start = Instant::now();
             sim.set_wind(&wind, frame as f32 * dt);
+            let wind_seconds = start.elapsed().as_secs_f64();
             sim.step(settings, GRAVITY, dt);
             run.frame_seconds.push(start.elapsed().as_secs_f64());
+            run.air_seconds.push(wind_seconds + sim.last_air_seconds());
             run.finite &= sim.is_finite();
-            run.max_strain = run.max_strain.max(sim.strain().max);
+            run.strains.push(sim.strain().max);
             run.directions.push(self.direction(&sim));
         }
         run.sim = sim;
@@ -396,25 +401,37 @@ pub struct FlagRun {
     pub frame_seconds: Vec<f64>,
     /// Wall time of the same frames stepped without air, s.
     pub no_air_seconds: Vec<f64>,
+    /// Wall time of every frame's air: sampling the wind and the forces, s.
+    pub air_seconds: Vec<f64>,
     /// The flag's mean direction from the pole after every frame ([`Flag::direction`]).
     pub directions: Vec<Vec3>,
     /// Whether the state stayed finite throughout.
     pub finite: bool,
-    /// The largest structural strain after any frame.
-    pub max_strain: f32,
+    /// The largest structural strain after every frame.
+    pub strains: Vec<f32>,
     /// The flag at the end.
     pub sim: ClothSolver,
 }
 
 impl FlagRun {
-    /// The air's share of the frame: `1 - median(no air) / median(with air)`.
+    /// The air's share of the frame: the median time of its wind sampling and forces over
+    /// the median frame.
     pub fn air_share(&self) -> f64 {
         let with = median(&self.frame_seconds);
         if with > 0.0 {
-            1.0 - median(&self.no_air_seconds) / with
+            median(&self.air_seconds) / with
         } else {
             0.0
         }
+    }
+
+    /// The median and the largest of the frames' largest strains.
+    pub fn strain(&self) -> (f32, f32) {
+        let values: Vec<f64> = self.strains.iter().map(|&s| s as f64).collect();
+        (
+            median(&values) as f32,
+            self.strains.iter().copied().fold(0.0, f32::max),
+        )
     }
 
     /// The mean of the flag's direction over the last `frames` frames.

@@ -4,7 +4,7 @@
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
-use super::air::{GustLattice, WindField, air_accelerations};
+use super::air::{GustField, WindField, air_accelerations};
 use super::batch::PairBatches;
 use super::constraints::Tether;
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
@@ -108,18 +108,17 @@ pub struct ClothSolver {
     adaptive_backup: ClothState,
     /// Buffers of the order-free edge projection (closed cloth).
     jacobi: JacobiScratch,
-    /// The wind at each triangle's centroid, from the last [`ClothSolver::set_wind`].
-    triangle_wind: Vec<Vec3A>,
+    /// The wind at each particle, from the last [`ClothSolver::set_wind`].
+    particle_wind: Vec<Vec3A>,
     /// The air's acceleration of each particle over the current step.
     air_acceleration: Vec<Vec3A>,
-    /// Gust velocities on the lattice of [`ClothSolver::set_wind`].
-    gust_samples: Vec<Vec3A>,
+    /// Wall time of the last step's air forces, seconds.
+    air_seconds: f64,
 }
 
 impl ClothSolver {
     /// A cloth at rest in its model's rest shape, with no pins.
     pub fn new(mut model: ClothModel) -> Self {
-        let model_triangles = model.triangles.len();
         let state = ClothState::at_rest(&model);
         let n = model.particle_count();
         // Lines run along structural edges only: a woven cloth stretches along its bias
@@ -195,27 +194,38 @@ impl ClothSolver {
             adaptive_calm: 0,
             adaptive_backup: ClothState::default(),
             jacobi: JacobiScratch::default(),
-            triangle_wind: vec![Vec3A::ZERO; model_triangles],
+            particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
-            gust_samples: Vec::with_capacity(GustLattice::MAX_SAMPLES),
+            air_seconds: 0.0,
         }
     }
 
-    /// Samples `wind` at time `t` (seconds) at every triangle's centroid for the coming steps
-    /// (the air of [`SolverSettings::air`] moves with it). Until it is called the air is
-    /// still. Gusts are sampled on a lattice of at most 4 x 4 x 4 points over the cloth's
-    /// bounds, a quarter of a gust's length apart or more, and interpolated: they vary
-    /// smoothly over that length, and 64 samples cost less than one per triangle.
+    /// Wall time the last step spent on the air's forces (the substeps' kicks left out),
+    /// seconds (feature `internals`).
+    #[cfg(feature = "internals")]
+    pub fn last_air_seconds(&self) -> f64 {
+        self.air_seconds
+    }
+
+    /// Samples `wind` at time `t` (seconds) at every particle for the coming steps (the air
+    /// of [`SolverSettings::air`] moves with it). Until it is called the air is still. Gusts
+    /// are taken as a linear field over the cloth (see `cloth/air.rs`).
     pub fn set_wind(&mut self, wind: &WindField, t: f32) {
         let x = &self.state.positions;
-        let lattice = GustLattice::sample(&wind.gusts, x, t, &mut self.gust_samples);
         let base = Vec3A::from(wind.velocity);
-        for (sample, tri) in self.triangle_wind.iter_mut().zip(&self.model.triangles) {
-            let [a, b, c] = tri.map(|i| x[i as usize]);
-            let centroid = (a + b + c) * (1.0 / 3.0);
-            let mut v = base + lattice.map_or(Vec3A::ZERO, |l| l.at(centroid, &self.gust_samples));
+        let base = if base.is_finite() { base } else { Vec3A::ZERO };
+        let gusts = GustField::over(&wind.gusts, x, t);
+        if gusts.is_none() && wind.sources.is_empty() {
+            self.particle_wind.fill(base);
+            return;
+        }
+        for (sample, &p) in self.particle_wind.iter_mut().zip(x) {
+            let mut v = base;
+            if let Some(gusts) = &gusts {
+                v += gusts.at(p);
+            }
             for source in &wind.sources {
-                v += Vec3A::from(source.velocity_at(centroid.into()));
+                v += Vec3A::from(source.velocity_at(p.into()));
             }
             *sample = if v.is_finite() { v } else { Vec3A::ZERO };
         }
@@ -555,6 +565,7 @@ impl ClothSolver {
         }
         self.sync_weights();
         if let Some(air) = settings.air.filter(|air| air.is_active()) {
+            let start = std::time::Instant::now();
             let state = &self.state;
             air_accelerations(
                 &air,
@@ -562,11 +573,12 @@ impl ClothSolver {
                 &state.positions,
                 &state.velocities,
                 &state.inverse_masses,
-                &self.triangle_wind,
+                &self.particle_wind,
                 self.model.density,
                 dt,
                 &mut self.air_acceleration,
             );
+            self.air_seconds = start.elapsed().as_secs_f64();
         }
         self.self_contacts = 0;
         if settings.self_collision {

@@ -154,15 +154,24 @@ impl ClothSolver {
 
         for s in 0..substeps {
             // 1. Predict (the air's share first, as a kick: it is constant over the step).
-            if let Some(air) = air {
-                for ((v, &air), &w) in v.iter_mut().zip(air).zip(&*w) {
-                    if w > 0.0 {
-                        *v += air * h;
-                    }
-                }
-            }
             let half_h2_a = a * (0.5 * h * h);
             match springs.as_deref_mut() {
+                None if air.is_some() => {
+                    let air = air.map_or(&[][..], |a| a.as_slice());
+                    for ((((x, x_prev), v), &w), &air) in x
+                        .iter_mut()
+                        .zip(x_prev.iter_mut())
+                        .zip(v.iter_mut())
+                        .zip(&*w)
+                        .zip(air)
+                    {
+                        *x_prev = *x;
+                        if w > 0.0 {
+                            *v += air * h;
+                            *x += *v * h + half_h2_a;
+                        }
+                    }
+                }
                 None => {
                     for (((x, x_prev), v), &w) in
                         x.iter_mut().zip(x_prev.iter_mut()).zip(&*v).zip(&*w)
@@ -174,6 +183,13 @@ impl ClothSolver {
                     }
                 }
                 Some(springs) => {
+                    if let Some(air) = air {
+                        for ((v, &air), &w) in v.iter_mut().zip(air).zip(&*w) {
+                            if w > 0.0 {
+                                *v += air * h;
+                            }
+                        }
+                    }
                     springs.forces.fill(Vec3A::ZERO);
                     springs
                         .set
