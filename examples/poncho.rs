@@ -12,7 +12,8 @@
 //! S3 figures. With no graphics adapter at all (no GPU, no Vulkan driver) it says so, runs the
 //! scene headless and prints its figures.
 //!
-//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W toggles the wave, S
+//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W toggles the wave, B
+//! a gusting breeze (the poncho meets the air, `SolverSettings::air`), S
 //! self-collision, R resets the poncho, P pauses, C cycles the debug colours; drag the poncho
 //! with the left mouse button, orbit with the right one, scroll to zoom.
 
@@ -26,6 +27,17 @@ use common::{ExamplePlugin, OrbitCamera, cloth_material, dress_humanoids, spawn_
 use drape_scenes::poncho::{
     Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
     run_headless,
+};
+
+/// The wind the B key turns on and off: 3 m/s from the character's left, gusting.
+const BREEZE: Wind = Wind {
+    velocity: Vec3::new(3.0, 0.0, 0.0),
+    gusts: Gusts {
+        strength: 1.0,
+        frequency: 0.5,
+        length: 4.0,
+        seed: 3,
+    },
 };
 
 /// The motion the example starts with.
@@ -52,8 +64,14 @@ fn main() {
         .insert_resource(Time::<Fixed>::from_hz(60.0))
         .insert_resource(PonchoScene {
             motion: START_MOTION,
+            // The poncho meets the air (the S3 figures are in vacuum); B turns a breeze on.
+            solver: SolverSettings {
+                air: Some(AirSettings::default()),
+                ..PonchoScene::default().solver
+            },
             ..default()
         })
+        .insert_resource(Wind::default())
         .add_systems(Startup, setup)
         .add_systems(
             Update,
@@ -165,7 +183,15 @@ fn keys(
     mut scene: ResMut<PonchoScene>,
     mut ponchos: Query<(&mut ClothSimulation, &mut ClothSettings), With<Poncho>>,
     mut controllers: Query<&mut CharacterController>,
+    mut wind: ResMut<Wind>,
 ) {
+    if input.just_pressed(KeyCode::KeyB) {
+        *wind = if wind.velocity == Vec3::ZERO {
+            BREEZE
+        } else {
+            Wind::default()
+        };
+    }
     let motion_keys = [
         KeyCode::Digit1,
         KeyCode::Digit2,

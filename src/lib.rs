@@ -35,7 +35,7 @@ pub mod prelude {
     pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
     pub use crate::cloth::{
         AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,
-        SolverMethod, SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
+        Gusts, SolverMethod, SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
     };
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{

@@ -1,5 +1,5 @@
 //! The egui panel (feature `egui`): the selected cloth's solver settings as sliders, the
-//! world's gravity, time scale, pause, single step and reset, live readouts of the fixed
+//! world's gravity, wind, time scale, pause, single step and reset, live readouts of the fixed
 //! step's cost by stage, strain, energy and contacts, the debug colours and collider gizmos.
 //!
 //! Add [`DrapePanelPlugin`] next to `DefaultPlugins` and [`crate::DrapePlugins`]; the panel
@@ -13,11 +13,13 @@ use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
 
 use super::gizmos::ColliderGizmos;
+use crate::cloth::air::AirSettings;
 use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::plugin::{
     ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings, DrapeSettings,
 };
 use crate::cloth::settings::{DampingMode, SolverMethod};
+use crate::cloth::wind_plugin::Wind;
 use crate::collide::plugin::ClothCollider;
 use crate::schedule::{DrapeSchedule, DrapeTimings};
 
@@ -74,6 +76,7 @@ fn panel(
     mut gizmos: ResMut<ColliderGizmos>,
     mut colliders: Query<&mut ClothCollider>,
     drag: Option<ResMut<super::drag::ClothDrag>>,
+    wind: Option<ResMut<Wind>>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     if let Some(mut drag) = drag {
@@ -149,6 +152,8 @@ fn panel(
                     (false, _) => drape.teleport = None,
                 }
             });
+
+            wind_controls(ui, &mut commands, wind);
 
             ui.separator();
             ui.label(format!(
@@ -322,6 +327,52 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
         egui::Slider::new(&mut settings.inertia, 0.0..=1.0)
             .text("inertia (of the followed entity's motion)"),
     );
+    let mut air_on = solver.air.is_some();
+    ui.checkbox(&mut air_on, "air (drag and lift)");
+    match (air_on, solver.air.as_mut()) {
+        (true, Some(air)) => {
+            ui.add(egui::Slider::new(&mut air.drag, 0.0..=3.0).text("drag coefficient"));
+            ui.add(egui::Slider::new(&mut air.lift, 0.0..=3.0).text("lift coefficient"));
+            ui.add(egui::Slider::new(&mut air.density, 0.0..=3.0).text("air density, kg/m³"));
+        }
+        (true, None) => solver.air = Some(AirSettings::default()),
+        (false, _) => solver.air = None,
+    }
+}
+
+/// The wind's speed and heading in the horizontal and its gusts; a button adds a [`Wind`] if
+/// the App has none.
+fn wind_controls(ui: &mut egui::Ui, commands: &mut Commands, wind: Option<ResMut<Wind>>) {
+    let Some(mut wind) = wind else {
+        if ui.button("add wind").clicked() {
+            commands.insert_resource(Wind::default());
+        }
+        return;
+    };
+    let v = wind.velocity;
+    let (mut speed, mut heading) = (
+        v.with_y(0.0).length(),
+        v.z.atan2(v.x).to_degrees().rem_euclid(360.0),
+    );
+    let mut gusts = wind.gusts;
+    ui.add(egui::Slider::new(&mut speed, 0.0..=30.0).text("wind, m/s"));
+    ui.add(egui::Slider::new(&mut heading, 0.0..=360.0).text("wind heading, degrees"));
+    ui.add(egui::Slider::new(&mut gusts.strength, 0.0..=15.0).text("gusts, m/s"));
+    ui.add(
+        egui::Slider::new(&mut gusts.frequency, 0.05..=4.0)
+            .logarithmic(true)
+            .text("gusts per second"),
+    );
+    let radians = heading.to_radians();
+    let velocity = Vec3::new(speed * radians.cos(), v.y, speed * radians.sin());
+    // Written back only when a slider moved, so that the resource is not marked changed
+    // every frame (and the round trip through the heading does not drift it).
+    if (velocity - v).length() > 1e-4 {
+        wind.velocity = velocity;
+    }
+    if gusts != wind.gusts {
+        wind.gusts = gusts;
+    }
 }
 
 fn ms(d: std::time::Duration) -> f64 {
