@@ -25,7 +25,8 @@ fn s1_step(c: &mut Criterion) {
             let mut sim = scene.build();
             // Let it fall first, so the step works on a hanging cloth rather than a flat one.
             for _ in 0..60 {
-                sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+                sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE)
+                    .expect("valid step input");
             }
             assert!(sim.is_finite(), "{name} at N = {n} diverged");
             group.bench_function(format!("{name}_n{n}"), |b| {

@@ -16,7 +16,8 @@ use drape_scenes::scenes::{FRAME_RATE, GRAVITY, HangingCloth};
 fn edge_sweep(c: &mut Criterion) {
     let mut sim = HangingCloth { n: 64 }.build();
     for _ in 0..60 {
-        sim.step(&SolverSettings::default(), GRAVITY, 1.0 / FRAME_RATE);
+        sim.step(&SolverSettings::default(), GRAVITY, 1.0 / FRAME_RATE)
+            .expect("valid step input");
     }
     let x0: Vec<Vec3A> = sim.state().positions.clone();
     let w = sim.state().inverse_masses.clone();

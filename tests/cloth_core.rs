@@ -13,11 +13,14 @@ use drape_scenes::study::sag;
 
 const DT: f32 = 1.0 / 60.0;
 
+/// No damping and no long-range constraints (one edge or one particle needs none, and a
+/// single iteration may not have them).
 fn undamped(substeps: u32, iterations: u32) -> SolverSettings {
     SolverSettings {
         substeps,
         iterations,
         damping: 0.0,
+        long_range_attachments: false,
         ..Default::default()
     }
 }
@@ -55,7 +58,7 @@ fn free_fall_follows_the_parabola_and_keeps_its_shape_under_rigid_damping() {
     let y0 = sim.rigid_motion().unwrap().center_of_mass.y;
     let rest: Vec<Vec3A> = sim.state().positions.clone();
     for _ in 0..60 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     let com = sim.rigid_motion().unwrap().center_of_mass;
     let expected = y0 - 0.5 * 9.81 * 1.0;
@@ -78,7 +81,7 @@ fn free_fall_follows_the_parabola_and_keeps_its_shape_under_rigid_damping() {
         ..settings
     };
     for _ in 0..60 {
-        plain.step(&settings, GRAVITY, DT);
+        plain.step(&settings, GRAVITY, DT).unwrap();
     }
     let y_plain = plain.rigid_motion().unwrap().center_of_mass.y;
     println!("plain damping: y = {y_plain}, expected {expected}");
@@ -110,7 +113,7 @@ fn a_spinning_free_cloth_keeps_its_angular_momentum_under_rigid_damping_only() {
             ..Default::default()
         };
         for _ in 0..120 {
-            sim.step(&settings, Vec3::ZERO, DT);
+            sim.step(&settings, Vec3::ZERO, DT).unwrap();
         }
         let l1 = sim.rigid_motion().unwrap().angular_momentum;
         (l1 - l0).length() / l0.length()
@@ -139,7 +142,7 @@ fn pendulum_period_matches_small_amplitude_theory() {
     let settings = undamped(20, 1);
     let (mut times, mut xs) = (Vec::new(), Vec::new());
     for frame in 1..=60 * 12 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
         times.push(frame as f32 * DT);
         xs.push(sim.state().positions[1].x);
     }
@@ -158,14 +161,12 @@ fn compliant_constraint_oscillates_like_a_spring_of_stiffness_one_over_complianc
     sim.set_pins(&[0]).unwrap();
     let settings = SolverSettings {
         stretch_compliance: 1.0 / stiffness,
-        // Tethers hold particles at their rest distance; a stretchy constraint needs them off.
-        long_range_attachments: false,
         ..undamped(20, 1)
     };
     let equilibrium = -(rest + mass * 9.81 / stiffness);
     let (mut times, mut ys) = (Vec::new(), Vec::new());
     for frame in 1..=120 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
         times.push(frame as f32 * DT);
         ys.push(sim.state().positions[1].y - equilibrium);
     }
@@ -379,7 +380,7 @@ fn moving_pins_drag_the_cloth_and_reset_restores_the_start() {
             let rest = sim.model().rest_positions[pin as usize];
             sim.set_pin_target(pin, rest + Vec3::X * (frame as f32 * 0.01));
         }
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     for pin in scene.pins() {
         let rest = sim.model().rest_positions[pin as usize];
@@ -399,13 +400,13 @@ fn pins_set_or_released_between_steps_hold_or_let_go() {
     let mut sim = free_grid(8);
     let settings = SolverSettings::default();
     for _ in 0..10 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     let corner = 0;
     sim.set_pins(&[corner]).unwrap();
     let held = sim.state().positions[corner as usize];
     for _ in 0..60 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     assert_eq!(sim.state().positions[corner as usize], held);
     // The rest of the cloth hangs below the corner, not falling away.
@@ -415,7 +416,7 @@ fn pins_set_or_released_between_steps_hold_or_let_go() {
     // Released, the corner falls with the rest.
     sim.set_pins(&[]).unwrap();
     for _ in 0..30 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     let fell = held.y - sim.state().positions[corner as usize].y;
     let free_fall = 0.5 * GRAVITY.length() * (30.0 * DT).powi(2);
@@ -428,10 +429,11 @@ fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
     sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
         0.0,
         Default::default(),
-    )]);
+    )])
+    .unwrap();
     let settings = SolverSettings::default();
     for _ in 0..180 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     for p in &sim.state().positions {
         assert!(p.y >= settings.thickness - 1e-5, "{p}");
@@ -447,10 +449,11 @@ fn the_step_is_deterministic() {
         sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
             0.2,
             Default::default(),
-        )]);
+        )])
+        .unwrap();
         let settings = SolverSettings::default();
         for _ in 0..60 {
-            sim.step(&settings, GRAVITY, DT);
+            sim.step(&settings, GRAVITY, DT).unwrap();
         }
         sim.state()
             .positions
@@ -486,7 +489,7 @@ fn cantilever_sag(isometric: bool, bend_compliance: f32) -> f32 {
         ..Default::default()
     };
     for _ in 0..180 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     let tip = (0..5)
         .map(|j| sim.state().positions[grid.index(6, j) as usize].y)
@@ -529,7 +532,7 @@ fn a_falling_particle_keeps_its_kinetic_plus_potential_energy() {
         "{start}"
     );
     for _ in 0..60 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
         // The velocity is the end-of-step one, so the sum holds to rounding.
         assert!(
             (energy(&sim) - start).abs() < 1e-3 * start,
@@ -538,4 +541,70 @@ fn a_falling_particle_keeps_its_kinetic_plus_potential_energy() {
         );
     }
     assert!(sim.state().positions[0].y < 1.0, "it came down again");
+}
+
+#[test]
+fn the_core_refuses_bad_input_and_never_writes_a_non_finite_state() {
+    use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape};
+    // Settings with one field made bad at random, gravity and steps that are not finite: each
+    // step either runs and leaves a finite state, or is refused with an error and changes
+    // nothing.
+    let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0];
+    let mut seed = 23u32;
+    let mut next = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as usize
+    };
+    let mut sim = HangingCloth { n: 8 }.build();
+    let (mut refused, mut stepped) = (0, 0);
+    for _ in 0..400 {
+        let mut settings = SolverSettings::default();
+        let mut gravity = GRAVITY;
+        let mut dt = DT;
+        let value = bad[next() % bad.len()];
+        match next() % 8 {
+            0 => settings.stretch_compliance = value,
+            1 => settings.bend_compliance = value,
+            2 => settings.damping = value,
+            3 => settings.friction = value,
+            4 => settings.thickness = value,
+            5 => gravity.y = value,
+            6 => dt = value,
+            _ => {}
+        }
+        let before = sim.state().clone();
+        match sim.step(&settings, gravity, dt) {
+            Ok(()) => {
+                stepped += 1;
+                assert!(sim.is_finite());
+            }
+            Err(err) => {
+                refused += 1;
+                assert!(matches!(err, ClothError::InvalidSetting { .. }), "{err}");
+                assert_eq!(sim.state().positions, before.positions);
+                assert_eq!(sim.state().velocities, before.velocities);
+            }
+        }
+    }
+    println!("{stepped} steps run, {refused} refused");
+    assert!(stepped > 0 && refused > 0);
+    assert_eq!(sim.step(&SolverSettings::default(), GRAVITY, 0.0), Ok(()));
+
+    // A collider with a non-finite velocity or pose is left out with an error; the valid one
+    // next to it is kept and the cloth steps on.
+    let ground = SolverCollider::fixed(SolverShape::Plane, RigidPose::IDENTITY);
+    let mut spinning = SolverCollider::fixed(
+        SolverShape::Sphere { radius: 0.2 },
+        RigidPose {
+            translation: Vec3A::new(0.5, 0.5, 0.5),
+            ..RigidPose::IDENTITY
+        },
+    );
+    spinning.angular_velocity = Vec3A::new(0.0, f32::NAN, 0.0);
+    assert!(sim.set_colliders(&[ground.clone(), spinning]).is_err());
+    assert_eq!(sim.colliders(), &[ground]);
+    for _ in 0..60 {
+        sim.step(&SolverSettings::default(), GRAVITY, DT).unwrap();
+    }
+    assert!(sim.is_finite());
 }

@@ -48,13 +48,14 @@ fn a_particle_bounces_to_epsilon_squared_times_its_drop_height() {
                     friction: 0.5,
                     restitution,
                 },
-            )]);
+            )])
+            .unwrap();
             let settings = settings(method);
             // Fall, bounce once, and record the top of the first rebound.
             let mut bounced = false;
             let mut top = 0.0f32;
             for _ in 0..180 {
-                sim.step(&settings, GRAVITY, DT);
+                sim.step(&settings, GRAVITY, DT).unwrap();
                 let (y, vy) = (sim.state().positions[0].y, sim.state().velocities[0].y);
                 if !bounced && vy > 0.0 {
                     bounced = true;
@@ -91,22 +92,22 @@ fn slide(angle: f32, mu: f32) -> (f32, f32) {
     let start = Vec3::new(0.0, 0.0, 0.0);
 
     let mut one = particle(start);
-    one.set_colliders(&[plane(rotation, material)]);
+    one.set_colliders(&[plane(rotation, material)]).unwrap();
 
     let grid = GridDesc {
         orientation: rotation,
         ..GridDesc::square(0.1, 4, start)
     };
     let mut patch = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
-    patch.set_colliders(&[plane(rotation, material)]);
+    patch.set_colliders(&[plane(rotation, material)]).unwrap();
     let centre = |sim: &ClothSolver| {
         let x = &sim.state().positions;
         Vec3::from(x.iter().copied().sum::<Vec3A>() / x.len() as f32)
     };
     let (c0, p0) = (centre(&patch), centre(&one));
     for _ in 0..FRAME_RATE as usize {
-        one.step(&settings, GRAVITY, DT);
-        patch.step(&settings, GRAVITY, DT);
+        one.step(&settings, GRAVITY, DT).unwrap();
+        patch.step(&settings, GRAVITY, DT).unwrap();
     }
     (
         (centre(&one) - p0).dot(down),
@@ -150,10 +151,10 @@ fn a_spinning_sphere_carries_a_particle_resting_on_top_along_omega_cross_r() {
     let top = Vec3A::new(0.0, radius, 0.0);
     let expected = omega.cross(top).normalize();
     let mut sim = particle(top.into());
-    sim.set_colliders(&[sphere]);
+    sim.set_colliders(&[sphere]).unwrap();
     let settings = settings(SolverMethod::Xpbd);
     for _ in 0..6 {
-        sim.step(&settings, GRAVITY, DT);
+        sim.step(&settings, GRAVITY, DT).unwrap();
     }
     let p = sim.state().positions[0];
     let v = sim.state().velocities[0];
@@ -196,8 +197,8 @@ fn a_fast_collider_leaves_no_particle_inside_it() {
         );
         sphere.end.translation = end;
         sphere.linear_velocity = Vec3A::X * per_step / DT;
-        sim.set_colliders(std::slice::from_ref(&sphere));
-        sim.step(&settings, Vec3::ZERO, DT);
+        sim.set_colliders(std::slice::from_ref(&sphere)).unwrap();
+        sim.step(&settings, Vec3::ZERO, DT).unwrap();
         contacts += sim.contact_count();
         for &p in &sim.state().positions {
             if let Some(d) = sphere.signed_distance(p, 0.0) {
@@ -259,9 +260,10 @@ fn a_triangle_mesh_collider_holds_a_particle_like_the_plane_it_tiles() {
     let mut sim = particle(Vec3::new(0.1, 0.5, 0.2));
     let mut floor = SolverCollider::fixed(SolverShape::TriangleMesh(mesh), RigidPose::IDENTITY);
     floor.margin = 0.01;
-    sim.set_colliders(&[floor]);
+    sim.set_colliders(&[floor]).unwrap();
     for _ in 0..120 {
-        sim.step(&settings(SolverMethod::Xpbd), GRAVITY, DT);
+        sim.step(&settings(SolverMethod::Xpbd), GRAVITY, DT)
+            .unwrap();
     }
     let p = sim.state().positions[0];
     println!("resting on the mesh at {p}");

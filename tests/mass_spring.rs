@@ -59,7 +59,7 @@ fn trace(
 ) -> Vec<(f32, f32)> {
     (1..=steps)
         .map(|i| {
-            sim.step(settings, Vec3::ZERO, dt);
+            sim.step(settings, Vec3::ZERO, dt).unwrap();
             (i as f32 * dt, displacement(sim))
         })
         .collect()
@@ -134,7 +134,7 @@ fn symplectic_euler_is_stable_below_two_over_omega_and_diverges_above_it() {
     let mut sim = oscillator();
     let mut largest = 0.0f32;
     for _ in 0..steps(dt) {
-        sim.step(&settings, Vec3::ZERO, dt);
+        sim.step(&settings, Vec3::ZERO, dt).unwrap();
         largest = largest.max(displacement(&sim).abs());
         assert_eq!(sim.divergence(&bounds), None);
     }
@@ -145,7 +145,7 @@ fn symplectic_euler_is_stable_below_two_over_omega_and_diverges_above_it() {
     let dt = 1.1 * critical;
     let mut sim = oscillator();
     let caught = (1..=steps(dt)).find_map(|i| {
-        sim.step(&settings, Vec3::ZERO, dt);
+        sim.step(&settings, Vec3::ZERO, dt).unwrap();
         sim.divergence(&bounds).map(|d| (i, d))
     });
     println!("1.1 x 2/omega: {caught:?}");
@@ -157,7 +157,7 @@ fn symplectic_euler_is_stable_below_two_over_omega_and_diverges_above_it() {
     let settings = spring_settings(SolverMethod::Xpbd, 0.0, 1);
     let mut sim = oscillator();
     for _ in 0..steps(dt) {
-        sim.step(&settings, Vec3::ZERO, dt);
+        sim.step(&settings, Vec3::ZERO, dt).unwrap();
         assert_eq!(sim.divergence(&bounds), None);
         assert!(displacement(&sim).abs() <= STRETCH * 1.0001);
     }
@@ -190,7 +190,7 @@ fn automatic_substeps_keep_a_stiff_cloth_stable() {
     let mut diverged = None;
     let mut lowest = f32::MAX;
     for frame in 1..=120 {
-        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE).unwrap();
         if sim.divergence(&DivergenceBounds::default()).is_some() {
             diverged = Some(frame);
         }
@@ -245,7 +245,7 @@ fn switching_the_method_keeps_positions_and_velocities() {
     let dt = 1.0 / FRAME_RATE;
     let xpbd = SolverSettings::default();
     for _ in 0..30 {
-        sim.step(&xpbd, GRAVITY, dt);
+        sim.step(&xpbd, GRAVITY, dt).unwrap();
     }
     let before = sim.state().clone();
     let speed = before
@@ -261,7 +261,7 @@ fn switching_the_method_keeps_positions_and_velocities() {
             auto_substeps: true,
             ..Default::default()
         };
-        switched.step(&settings, GRAVITY, dt);
+        switched.step(&settings, GRAVITY, dt).unwrap();
         // Continuing from the same state: every particle ends near x + v dt.
         let worst = switched
             .state()
@@ -291,14 +291,15 @@ fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
         sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
             0.0,
             Default::default(),
-        )]);
+        )])
+        .unwrap();
         let settings = SolverSettings {
             method,
             auto_substeps: true,
             ..Default::default()
         };
         for _ in 0..120 {
-            sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+            sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE).unwrap();
         }
         let lowest = sim
             .state()

@@ -140,9 +140,9 @@ struct Track {
 const KEY_TIMES: [f32; 5] = [0.0, 0.2, 0.5, 0.7, 1.0];
 
 /// Whether a key time of the clip lies between `from` and `to` (clip times, looped). The
-/// clip's splines are smooth between keys but not across them (the acceleration of a
-/// Catmull-Rom spline jumps at its keys, and so, for now, does the angular velocity of the
-/// root rotation's spline), so a finite difference across a key is no reference there.
+/// clip's splines are C1 (velocities continuous) but not C2: the acceleration of a
+/// Catmull-Rom spline jumps at its keys, so a finite difference across a key is no reference
+/// for the velocity there.
 fn straddles_a_key(from: f32, to: f32) -> bool {
     let (from, to) = if to < from {
         (from, to + 1.0)
@@ -437,7 +437,8 @@ fn carried_sheet(mover: &Mover, inertia: f32, steps: usize) -> (Vec<Vec3>, Vec<V
     for n in 1..=steps {
         let frame = tracker.step(pose_at(n as f32 * dt), dt, None);
         sim.follow_frame(&frame, inertia);
-        sim.step(&SolverSettings::default(), Vec3::ZERO, dt);
+        sim.step(&SolverSettings::default(), Vec3::ZERO, dt)
+            .unwrap();
         last = frame.end;
     }
     let world: Vec<Vec3> = sim.state().positions.iter().map(|&p| p.into()).collect();
@@ -512,7 +513,8 @@ fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_fra
             };
             at = next;
             sim.follow_frame(&frame, inertia);
-            sim.step(&SolverSettings::default(), Vec3::ZERO, dt);
+            sim.step(&SolverSettings::default(), Vec3::ZERO, dt)
+                .unwrap();
         }
         // Carried by (1 - inertia) of the motion while the frame moves; when it stops, the
         // carried share stops with it (as a cloth simulated in the frame with its inertial

@@ -53,9 +53,10 @@ fn stepping_allocates_nothing() {
     sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
         0.5,
         Default::default(),
-    )]);
+    )])
+    .unwrap();
     let settings = SolverSettings::default();
-    sim.step(&settings, GRAVITY, 1.0 / 60.0);
+    sim.step(&settings, GRAVITY, 1.0 / 60.0).unwrap();
     COUNTING.with(|c| c.set(true));
     let before = ALLOCATIONS.load(Ordering::Relaxed);
     for frame in 0..30 {
@@ -63,7 +64,7 @@ fn stepping_allocates_nothing() {
             let target = sim.model().rest_positions[pin as usize];
             sim.set_pin_target(pin, target + bevy::math::Vec3::X * (frame as f32 * 0.01));
         }
-        sim.step(&settings, GRAVITY, 1.0 / 60.0);
+        sim.step(&settings, GRAVITY, 1.0 / 60.0).unwrap();
     }
     let _ = sim.strain();
     let after = ALLOCATIONS.load(Ordering::Relaxed);

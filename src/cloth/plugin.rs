@@ -238,6 +238,10 @@ pub struct ClothSimulation {
     /// The colliders this cloth meets in a step (the world's and its own planes).
     colliders: Vec<SolverCollider>,
     warned_invalid_settings: bool,
+    /// Whether a refused step was reported (until a step succeeds again).
+    warned_step_input: bool,
+    /// Whether a ground or container left out was reported (until all are valid again).
+    warned_planes: bool,
     warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
     frozen_with: Option<ClothSettings>,
@@ -386,6 +390,8 @@ fn build_simulation(
             base_colors: Vec::new(),
             colliders: Vec::new(),
             warned_invalid_settings: false,
+            warned_step_input: false,
+            warned_planes: false,
             warned_volume: false,
             frozen_with: None,
             follow: FrameTracker::default(),
@@ -519,7 +525,16 @@ fn step_cloths(
             .colliders
             .extend_from_slice(colliders.as_ref().map_or(&[], |c| &c.colliders));
         settings.plane_colliders(&mut simulation.colliders);
-        sim.set_colliders(&simulation.colliders);
+        // The world's colliders were checked when gathered (each reported with its entity);
+        // what is left out here is this cloth's own ground or container.
+        match sim.set_colliders(&simulation.colliders) {
+            Err(err) if !simulation.warned_planes => {
+                warn!("cloth {entity}: its ground or container is left out: {err}");
+                simulation.warned_planes = true;
+            }
+            Err(_) => {}
+            Ok(()) => simulation.warned_planes = false,
+        }
 
         if let Ok(global) = transforms.compute_global_transform(entity) {
             for &v in &cloth.pinned_vertices {
@@ -580,7 +595,14 @@ fn step_cloths(
         {
             sim.set_wind(&wind.0, time.elapsed_secs());
         }
-        sim.step(&settings.solver, drape.gravity, dt);
+        if let Err(err) = sim.step(&settings.solver, drape.gravity, dt) {
+            if !simulation.warned_step_input {
+                warn!("cloth {entity} is not stepped: {err}");
+                simulation.warned_step_input = true;
+            }
+            continue;
+        }
+        simulation.warned_step_input = false;
         if settings.solver.volume.is_some()
             && let Some(err) = sim.volume_error()
             && !simulation.warned_volume

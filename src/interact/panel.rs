@@ -271,7 +271,10 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
             .logarithmic(true)
             .text("substeps"),
     );
-    ui.add(egui::Slider::new(&mut solver.iterations, 1..=20).text("iterations"));
+    // One sweep with long-range constraints gains energy: the settings refuse it.
+    let fewest = if solver.long_range_attachments { 2 } else { 1 };
+    solver.iterations = solver.iterations.max(fewest);
+    ui.add(egui::Slider::new(&mut solver.iterations, fewest..=20).text("iterations"));
     match &mut solver.method {
         SolverMethod::Xpbd | SolverMethod::Hybrid => {
             ui.add(

@@ -45,12 +45,19 @@
 //! # Rotations
 //!
 //! [`QuatSpline`] first flips each key into the hemisphere of the one before (`q` and `-q` are
-//! the same rotation; the flip makes every segment take the short way), then interpolates each
-//! segment in the tangent space of its first key: with `r_k = log(q_i^-1 q_k)` (rotation
-//! vectors) for the four keys around the segment, the same Hermite segment runs on `r` and
-//! `q(t) = q_i exp(r(t))`. The result is always a unit quaternion, passes through every key,
-//! and for rotations about one fixed axis is exactly the scalar spline of the angle. The
-//! angular velocity is `q (J_r(r) dr/dt)` with `J_r` the right Jacobian of the exponential map.
+//! the same rotation; the flip makes every segment take the short way). Each key `i` gets one
+//! angular velocity `w_i`, in its own frame (body frame), shared by the two segments that meet
+//! there: the non-uniform tangent above taken in the key's tangent space, on the rotation
+//! vectors `log(q_i^-1 q_{i-1})`, `0`, `log(q_i^-1 q_{i+1})` (one-sided at a clamped end, wrapped
+//! in a loop). A segment runs a Hermite cubic on the rotation vector `r(t)` relative to its
+//! first key, `q(t) = q_i exp(r(t))`, from `r = 0` to `R = log(q_i^-1 q_{i+1})`, with end slopes
+//! `dr/dt = w_i` (at `r = 0` the body angular velocity is `dr/dt`) and
+//! `dr/dt = J_r(R)^-1 w_{i+1}` (`J_r` the right Jacobian of the exponential map: the body
+//! angular velocity is `J_r(r) dr/dt`). Both segments meeting at a key therefore end and start
+//! with the key's rotation and the same angular velocity: the spline is C1 at every key, at
+//! any spacing. It is always a unit quaternion, passes through every key, and for rotations
+//! about one fixed axis is exactly the scalar spline of the angle. The world angular velocity
+//! is `q (J_r(r) dr/dt)`.
 
 use bevy::math::{Quat, Vec3};
 
@@ -297,6 +304,8 @@ fn key_tangents<T: SplineValue>(
 pub struct QuatSpline {
     times: Vec<f32>,
     keys: Vec<Quat>,
+    /// Each key's angular velocity in its own frame, rad/s.
+    rates: Vec<Vec3>,
     looping: bool,
 }
 
@@ -332,6 +341,19 @@ fn right_jacobian_times(r: Vec3, dr: Vec3) -> Vec3 {
         + kk * ((theta - theta.sin()) / (theta * theta * theta))
 }
 
+/// The inverse of the right Jacobian: `J_r(r)^-1 w`, the rate of `r` that gives the body
+/// angular velocity `w` at `exp(r)`.
+fn inverse_right_jacobian_times(r: Vec3, w: Vec3) -> Vec3 {
+    let theta = r.length();
+    let k = r.cross(w);
+    let kk = r.cross(k);
+    if theta < 1e-4 {
+        return w + 0.5 * k + kk * (1.0 / 12.0);
+    }
+    let half = 0.5 * theta;
+    w + 0.5 * k + kk * ((1.0 - half * half.cos() / half.sin()) / (theta * theta))
+}
+
 impl QuatSpline {
     /// A spline through the rotations `keys` at `times` (normalised, flipped into one
     /// hemisphere). Errors as [`KeySpline::new`], and for a key that is not finite or has zero
@@ -351,9 +373,38 @@ impl QuatSpline {
             }
             fixed.push(q);
         }
+        let n = fixed.len();
+        let period = times[n - 1] - times[0];
+        // A key's neighbour at offset -1 or +1, wrapped in a loop: its time and rotation.
+        let neighbour = |i: usize, next: bool| -> Option<(f32, Quat)> {
+            match (next, i) {
+                (false, 0) => (looping && n > 2).then(|| (times[n - 2] - period, fixed[n - 2])),
+                (false, i) => Some((times[i - 1], fixed[i - 1])),
+                (true, i) if i + 1 == n => {
+                    (looping && n > 2).then(|| (times[1] + period, fixed[1]))
+                }
+                (true, i) => Some((times[i + 1], fixed[i + 1])),
+            }
+        };
+        let rates = (0..n)
+            .map(|i| {
+                let (ti, inv) = (times[i], fixed[i].inverse());
+                let chart = |(t, q): (f32, Quat)| (t, log(inv * q));
+                match (
+                    neighbour(i, false).map(chart),
+                    neighbour(i, true).map(chart),
+                ) {
+                    (Some((t0, r0)), Some((t2, r2))) => tangent(t0, r0, ti, Vec3::ZERO, t2, r2),
+                    (None, Some((t2, r2))) => r2 / (t2 - ti),
+                    (Some((t0, r0)), None) => -r0 / (ti - t0),
+                    (None, None) => Vec3::ZERO,
+                }
+            })
+            .collect();
         Ok(Self {
             times: times.to_vec(),
             keys: fixed,
+            rates,
             looping,
         })
     }
@@ -366,38 +417,15 @@ impl QuatSpline {
             let k = if t <= self.times[0] { 0 } else { n - 1 };
             return (self.keys[k], Vec3::ZERO);
         }
-        let period = self.times[n - 1] - self.times[0];
         let base = self.keys[i];
-        let inv = base.inverse();
-        // The four keys around the segment as rotation vectors relative to `base`.
-        let key = |k: isize| -> Option<(f32, Vec3)> {
-            let (time, q) = if k < 0 {
-                (self.looping && n > 2).then(|| (self.times[n - 2] - period, self.keys[n - 2]))?
-            } else if k as usize >= n {
-                (self.looping && n > 2).then(|| (self.times[1] + period, self.keys[1]))?
-            } else {
-                (self.times[k as usize], self.keys[k as usize])
-            };
-            Some((time, log(inv * q)))
-        };
-        let i = i as isize;
-        let (t1, r1) = key(i).unwrap_or((self.times[0], Vec3::ZERO));
-        let (t2, r2) = key(i + 1).unwrap_or((t1 + 1.0, Vec3::ZERO));
-        let m = |prev: Option<(f32, Vec3)>, (tk, rk): (f32, Vec3), next: Option<(f32, Vec3)>| match (
-            prev, next,
-        ) {
-            (Some((t0, r0)), Some((t3, r3))) => tangent(t0, r0, tk, rk, t3, r3),
-            (None, Some((t3, r3))) => (r3 - rk) / (t3 - tk),
-            (Some((t0, r0)), None) => (rk - r0) / (tk - t0),
-            (None, None) => Vec3::ZERO,
-        };
-        let m1 = m(key(i - 1), (t1, r1), Some((t2, r2)));
-        let m2 = m(Some((t1, r1)), (t2, r2), key(i + 2));
-        let d = t2 - t1;
-        let s = (t - t1) / d;
+        let end = log(base.inverse() * self.keys[i + 1]);
+        let d = self.times[i + 1] - self.times[i];
+        let start_rate = self.rates[i];
+        let end_rate = inverse_right_jacobian_times(end, self.rates[i + 1]);
+        let s = (t - self.times[i]) / d;
         let (h, dh) = hermite(s);
-        let r = r1 * h[0] + m1 * d * h[1] + r2 * h[2] + m2 * d * h[3];
-        let dr = (r1 * dh[0] + m1 * d * dh[1] + r2 * dh[2] + m2 * d * dh[3]) / d;
+        let r = start_rate * (d * h[1]) + end * h[2] + end_rate * (d * h[3]);
+        let dr = (start_rate * (d * dh[1]) + end * dh[2] + end_rate * (d * dh[3])) / d;
         let q = (base * exp(r)).normalize();
         let omega = q * right_jacobian_times(r, dr);
         (q, omega)
@@ -559,6 +587,97 @@ mod tests {
                 "t {t}: {rot} vs {theta}"
             );
             assert!((omega - Vec3::Y * rate).length() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn the_angular_velocity_is_continuous_at_every_key_for_random_keys_and_times() {
+        // Random rotations at random times (spacings from 0.1 to 1.1 s), clamped and looping:
+        // the angular velocity just before and just after every key agree, and between keys
+        // it is the derivative of the rotation.
+        let mut seed = 17u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let (mut worst_jump, mut worst_derivative) = (0.0f32, 0.0f32);
+        for _ in 0..200 {
+            let n = 3 + (next() * 6.0) as usize;
+            let mut times = vec![0.0f32];
+            for _ in 1..n {
+                let last = *times.last().unwrap();
+                times.push(last + 0.1 + next());
+            }
+            let keys: Vec<Quat> = (0..n)
+                .map(|_| {
+                    let mut a = || (2.0 * next() - 1.0) * 2.5;
+                    Quat::from_euler(bevy::math::EulerRot::YXZ, a(), 0.5 * a(), a())
+                })
+                .collect();
+            for looping in [false, true] {
+                let mut keys = keys.clone();
+                if looping {
+                    keys[n - 1] = keys[0];
+                }
+                let spline = QuatSpline::new(&times, &keys, looping).unwrap();
+                // One-sided limits, extrapolated linearly from two samples on each side so
+                // that the (discontinuous) angular acceleration drops out.
+                let eps = 1e-4;
+                let wrap = |t: f32| {
+                    if t < times[0] {
+                        t + (times[n - 1] - times[0])
+                    } else if t > times[n - 1] {
+                        t - (times[n - 1] - times[0])
+                    } else {
+                        t
+                    }
+                };
+                let interior = if looping { 0..n - 1 } else { 1..n - 1 };
+                for k in interior {
+                    let t = times[k];
+                    let w = |dt: f32| spline.sample(wrap(t + dt)).1;
+                    let before = w(-eps) * 2.0 - w(-2.0 * eps);
+                    let after = w(eps) * 2.0 - w(2.0 * eps);
+                    let jump =
+                        (before - after).length() / (1.0 + before.length().max(after.length()));
+                    worst_jump = worst_jump.max(jump);
+                }
+                for j in 0..50 {
+                    let t = times[0] + (times[n - 1] - times[0]) * (j as f32 + 0.5) / 50.0;
+                    if times.iter().any(|&key| (key - t).abs() < 2e-3) {
+                        continue;
+                    }
+                    let (_, omega) = spline.sample(t);
+                    let (a, b) = (spline.sample(t - 1e-3).0, spline.sample(t + 1e-3).0);
+                    let numeric = log(b * a.inverse()) / 2e-3;
+                    worst_derivative =
+                        worst_derivative.max((numeric - omega).length() / (1.0 + omega.length()));
+                }
+            }
+        }
+        println!(
+            "worst velocity jump at a key {worst_jump}, worst derivative error {worst_derivative}"
+        );
+        assert!(
+            worst_jump < 2e-3,
+            "the angular velocity jumps by {worst_jump} at a key"
+        );
+        assert!(worst_derivative < 1e-2, "{worst_derivative}");
+    }
+
+    #[test]
+    fn the_inverse_right_jacobian_inverts_the_right_jacobian() {
+        let mut seed = 5u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..1000 {
+            let scale = if next() > 0.0 { 3.0 } else { 1e-5 };
+            let r = Vec3::new(next(), next(), next()) * scale;
+            let w = Vec3::new(next(), next(), next());
+            let back = right_jacobian_times(r, inverse_right_jacobian_times(r, w));
+            assert!((back - w).length() < 1e-4, "r {r}: {back} vs {w}");
         }
     }
 

@@ -71,7 +71,8 @@ impl HangingCloth {
         let mut divergence = None;
         for frame in 1..=frames {
             let start = Instant::now();
-            sim.step(settings, GRAVITY, dt);
+            sim.step(settings, GRAVITY, dt)
+                .expect("the scene runs with valid settings");
             run.frame_seconds.push(start.elapsed().as_secs_f64());
             run.substeps.push(sim.last_substeps());
             finite &= sim.is_finite();
@@ -147,7 +148,7 @@ impl Drape {
         let model =
             ClothModel::grid(&grid, DENSITY).expect("the standard grid is valid by construction");
         let mut sim = ClothSolver::new(model);
-        sim.set_colliders(&self.colliders());
+        sim.set_colliders(&self.colliders()).unwrap();
         sim
     }
 
@@ -162,7 +163,8 @@ impl Drape {
         let mut finite = true;
         for _ in 0..frames {
             let start = Instant::now();
-            sim.step(settings, GRAVITY, dt);
+            sim.step(settings, GRAVITY, dt)
+                .expect("the scene runs with valid settings");
             frame_seconds.push(start.elapsed().as_secs_f64());
             finite &= sim.is_finite();
             for &p in &sim.state().positions {
@@ -238,7 +240,7 @@ impl SheetDrop {
         let model = ClothModel::grid(&self.grid(), DENSITY)
             .expect("the standard grid is valid by construction");
         let mut sim = ClothSolver::new(model);
-        sim.set_colliders(&[self.ground()]);
+        sim.set_colliders(&[self.ground()]).unwrap();
         sim
     }
 
@@ -250,7 +252,8 @@ impl SheetDrop {
         let mut finite = true;
         for _ in 0..frames {
             let start = Instant::now();
-            sim.step(settings, GRAVITY, dt);
+            sim.step(settings, GRAVITY, dt)
+                .expect("the scene runs with valid settings");
             frame_seconds.push(start.elapsed().as_secs_f64());
             finite &= sim.is_finite();
         }
@@ -377,12 +380,13 @@ impl Flag {
         for frame in 0..frames {
             copy.clone_from(&sim);
             let start = Instant::now();
-            copy.step(&still, GRAVITY, dt);
+            copy.step(&still, GRAVITY, dt).expect("valid step input");
             run.no_air_seconds.push(start.elapsed().as_secs_f64());
             let start = Instant::now();
             sim.set_wind(&wind, frame as f32 * dt);
             let wind_seconds = start.elapsed().as_secs_f64();
-            sim.step(settings, GRAVITY, dt);
+            sim.step(settings, GRAVITY, dt)
+                .expect("the scene runs with valid settings");
             run.frame_seconds.push(start.elapsed().as_secs_f64());
             run.air_seconds.push(wind_seconds + sim.last_air_seconds());
             run.finite &= sim.is_finite();

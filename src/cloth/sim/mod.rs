@@ -18,7 +18,7 @@ use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
 use crate::collide::contact::{Contact, ContactScratch};
 use crate::collide::{FrameStep, SolverCollider};
-use crate::error::ClothError;
+use crate::error::{ClothError, ColliderError};
 
 mod diagnostics;
 mod passes;
@@ -293,9 +293,21 @@ impl ClothSolver {
     }
 
     /// Replaces the colliders the cloth meets in the next steps (see [`crate::collide`]).
-    pub fn set_colliders(&mut self, colliders: &[SolverCollider]) {
+    /// A collider that is not valid ([`SolverCollider::validate`]: a bad dimension or
+    /// material, a non-finite pose or velocity) is left out, and the first such error is
+    /// returned; the valid ones are kept either way.
+    pub fn set_colliders(&mut self, colliders: &[SolverCollider]) -> Result<(), ColliderError> {
         self.colliders.clear();
-        self.colliders.extend_from_slice(colliders);
+        let mut first_error = None;
+        for collider in colliders {
+            match collider.validate() {
+                Ok(()) => self.colliders.push(collider.clone()),
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        first_error.map_or(Ok(()), Err)
     }
 
     /// Carries the cloth along with the frame it follows (a character) over the coming step,
@@ -555,9 +567,33 @@ impl ClothSolver {
     /// velocity `(x - x_prev) / h`, started consistently (velocity Verlet), so a free particle
     /// follows `x0 + v0 t + a t^2 / 2` exactly, whatever the step; mass-spring and the hybrid
     /// integrate the spring forces with symplectic Euler.
-    pub fn step(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
-        if !(dt > 0.0 && dt.is_finite()) {
-            return;
+    ///
+    /// Bad input is refused, not stepped, so that nothing non-finite reaches the state: settings
+    /// out of range ([`SolverSettings::validate`]), a non-finite acceleration, or a negative or
+    /// non-finite `dt` return the error and leave the cloth as it was; `dt = 0` does nothing.
+    pub fn step(
+        &mut self,
+        settings: &SolverSettings,
+        acceleration: Vec3,
+        dt: f32,
+    ) -> Result<(), ClothError> {
+        settings.validate()?;
+        if let Some(&value) = acceleration.to_array().iter().find(|a| !a.is_finite()) {
+            return Err(ClothError::InvalidSetting {
+                name: "acceleration",
+                value,
+                reason: "finite",
+            });
+        }
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(ClothError::InvalidSetting {
+                name: "dt",
+                value: dt,
+                reason: "finite and >= 0",
+            });
+        }
+        if dt == 0.0 {
+            return Ok(());
         }
         self.build_contact_tethers(settings);
         if settings.volume.is_some() && self.volume.is_none() {
@@ -594,6 +630,7 @@ impl ClothSolver {
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
         }
+        Ok(())
     }
 
     /// Copies the inverse masses into the batches if they changed since the last step (they

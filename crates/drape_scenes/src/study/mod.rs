@@ -421,7 +421,8 @@ pub fn is_stable(n: u32, settings: &SolverSettings, frames: u32) -> bool {
     let mut sim = scene.build();
     let dt = 1.0 / FRAME_RATE;
     for _ in 0..frames {
-        sim.step(settings, GRAVITY, dt);
+        sim.step(settings, GRAVITY, dt)
+            .expect("the scene runs with valid settings");
         if !sim.is_finite() || sim.divergence(&BLOW_UP).is_some() {
             return false;
         }
@@ -557,7 +558,8 @@ pub fn sag(method: SolverMethod, iterations: u32, stretch_compliance: f32) -> f3
         ..SolverSettings::default()
     };
     for _ in 0..240 {
-        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE);
+        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE)
+            .expect("valid step input");
     }
     sim.rigid_motion()
         .map_or(f32::NAN, |m| 1.0 - m.center_of_mass.y)
