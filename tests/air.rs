@@ -5,6 +5,7 @@
 use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
+use bevy::math::Vec3A;
 use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
@@ -299,4 +300,45 @@ fn the_wind_resource_and_a_fan_blow_a_cloth_in_an_app() {
     assert!(windy.z - still.z > 0.2, "{windy} against {still}");
     assert!(still.z - fanned.z > 0.1, "{fanned} against {still}");
     assert!((broken - still).length() < 1e-5);
+}
+
+#[test]
+fn a_cloth_carried_by_the_frame_it_follows_feels_the_air_it_moves_through() {
+    use bevy_drape::collide::{FrameStep, RigidPose};
+    // The same sheet moving at `u` through still air: simulated in the world, and carried
+    // wholly (inertia 0) by a frame moving at `u`, its state at rest relative to the frame.
+    // The air's pull must be the same.
+    let settings = SolverSettings {
+        air: Some(AirSettings::default()),
+        ..SolverSettings::default()
+    };
+    let u = Vec3::new(4.0, 0.0, -3.0);
+    let orientation = Quat::from_rotation_z(0.7);
+    let mut world = sheet(orientation, 0.1);
+    for v in &mut world.state_mut().velocities {
+        *v = u.into();
+    }
+    let mut carried = sheet(orientation, 0.1);
+    let start = RigidPose::IDENTITY;
+    let frame = FrameStep {
+        start,
+        end: RigidPose {
+            translation: (u * DT).into(),
+            ..start
+        },
+        linear_velocity: u.into(),
+        angular_velocity: Vec3A::ZERO,
+        jumped: false,
+    };
+    carried.follow_frame(&frame, 0.0);
+    world.step(&settings, Vec3::ZERO, DT).unwrap();
+    carried.step(&settings, Vec3::ZERO, DT).unwrap();
+    let world_change = mean_velocity(&world) - u;
+    let carried_change = mean_velocity(&carried);
+    println!("velocity change: in the world {world_change}, carried {carried_change}");
+    assert!(world_change.length() > 0.05);
+    assert!(
+        (world_change - carried_change).length() < 1e-3 * world_change.length(),
+        "{world_change} against {carried_change}"
+    );
 }

@@ -114,6 +114,12 @@ pub struct ClothSolver {
     air_acceleration: Vec<Vec3A>,
     /// Wall time of the last step's air forces, seconds.
     air_seconds: f64,
+    /// The carried share of the followed frame's motion over the coming step
+    /// ([`ClothSolver::follow_frame`]): the state's velocities are relative to it, so the
+    /// wind is too.
+    carried: Option<(FrameStep, f32)>,
+    /// The wind relative to the carried motion, per particle (scratch).
+    relative_wind: Vec<Vec3A>,
 }
 
 impl ClothSolver {
@@ -197,6 +203,8 @@ impl ClothSolver {
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
             air_seconds: 0.0,
+            carried: None,
+            relative_wind: vec![Vec3A::ZERO; n],
         }
     }
 
@@ -329,6 +337,7 @@ impl ClothSolver {
             0.0
         };
         let map = frame.carry(if frame.jumped { 1.0 } else { s });
+        self.carried = (s > 0.0 && !frame.jumped).then_some((*frame, s));
         if !(map.rotation.is_finite() && map.to.is_finite() && map.pivot.is_finite()) {
             return;
         }
@@ -600,16 +609,33 @@ impl ClothSolver {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
         self.sync_weights();
+        let carried = self.carried.take();
         if let Some(air) = settings.air.filter(|air| air.is_active()) {
             let start = std::time::Instant::now();
             let state = &self.state;
+            // Velocities are relative to the carried share of the followed frame's motion:
+            // so must the wind be.
+            let wind = match carried {
+                Some((frame, s)) => {
+                    for ((relative, &wind), &p) in self
+                        .relative_wind
+                        .iter_mut()
+                        .zip(&self.particle_wind)
+                        .zip(&state.positions)
+                    {
+                        *relative = wind - frame.velocity_at(p) * s;
+                    }
+                    &self.relative_wind
+                }
+                None => &self.particle_wind,
+            };
             air_accelerations(
                 &air,
                 &self.model.triangles,
                 &state.positions,
                 &state.velocities,
                 &state.inverse_masses,
-                &self.particle_wind,
+                wind,
                 self.model.density,
                 dt,
                 &mut self.air_acceleration,
