@@ -13,6 +13,9 @@
 //! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
 //! `ClothSettings::inertia`.
 //!
+//! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
+//! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
+//!
 //! `wind` is the flag (hanging in the XY plane) in a wind of `--wind` m/s across it, along
 //! +Z, with `--gusts` m/s of gusts; it
 //! reports the frame's cost with air and, stepped from the same states, without.
@@ -27,8 +30,8 @@ use bevy::math::Vec3;
 use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
 use drape_scenes::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
 use drape_scenes::scenes::{
-    Drape, DrapeRun, FRAME_RATE, Flag, FlagRun, HangingCloth, SceneRun, SheetDrop, SheetDropRun,
-    median,
+    Collisions, CollisionsRun, Drape, DrapeRun, FRAME_RATE, Flag, FlagRun, HangingCloth, SceneRun,
+    SheetDrop, SheetDropRun, median,
 };
 
 fn main() {
@@ -48,6 +51,7 @@ fn run() -> Result<(), String> {
         "drop" => SheetDrop::settings(false),
         "s3" => PonchoScene::default().solver,
         "wind" => Flag::settings(),
+        "collisions" => Collisions::settings(),
         _ => SolverSettings::default(),
     };
     let mut wave = true;
@@ -56,7 +60,12 @@ fn run() -> Result<(), String> {
     let mut wind_speed = 10.0f32;
     let mut gusts = 0.0f32;
     let n_given = std::env::args().any(|a| a == "--n");
-    let mut method = "xpbd".to_string();
+    let mut method = if scene == "collisions" {
+        "mass-spring"
+    } else {
+        "xpbd"
+    }
+    .to_string();
     let mut stiffness = 1.0f32;
     while let Some(flag) = args.next() {
         let mut value = || args.next().ok_or(format!("{flag} needs a value"));
@@ -268,7 +277,30 @@ fn run() -> Result<(), String> {
             );
             Ok(())
         }
-        other => Err(format!("unknown scene {other} (s1, s2, s3, drop, wind)")),
+        "collisions" => {
+            let scene = Collisions { n };
+            let mut all_frames = Vec::new();
+            let mut last = None;
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames);
+                all_frames.extend_from_slice(&run.frame_seconds);
+                last = Some(run);
+            }
+            let run: CollisionsRun = last.expect("at least one run");
+            let touched: Vec<String> = run.touched.iter().map(|t| t.to_string()).collect();
+            println!(
+                "{{\"scene\":\"collisions\",\"n\":{n},\"method\":\"{method}\",\"substeps_used\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"touched\":[{}],\"deepest_penetration\":{:.6},\"finite\":{}}}",
+                run.sim.last_substeps(),
+                median(&all_frames) * 1e3,
+                touched.join(","),
+                run.deepest_penetration,
+                run.finite
+            );
+            Ok(())
+        }
+        other => Err(format!(
+            "unknown scene {other} (s1, s2, s3, drop, wind, collisions)"
+        )),
     }
 }
 

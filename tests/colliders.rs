@@ -269,3 +269,32 @@ fn a_triangle_mesh_collider_holds_a_particle_like_the_plane_it_tiles() {
     println!("resting on the mesh at {p}");
     assert!((p.y - 0.01).abs() < 1e-4);
 }
+
+#[test]
+fn a_thrown_mass_spring_cloth_hits_every_sphere_the_ground_and_the_walls_and_stays_out() {
+    use drape_scenes::scenes::Collisions;
+    let scene = Collisions { n: 16 };
+    let settings = Collisions::settings();
+    let run = scene.run(&settings, 240);
+    println!(
+        "touched {:?}, deepest {} m, {} substeps",
+        run.touched,
+        run.deepest_penetration,
+        run.sim.last_substeps()
+    );
+    assert!(run.finite);
+    // The three spheres (the moving one too), the +X wall it is thrown at, and the ground.
+    for k in [0, 1, 2, 4, 5] {
+        assert!(
+            run.touched[k],
+            "collider {k} never touched: {:?}",
+            run.touched
+        );
+    }
+    // Never deeper inside anything than the cloth's thickness.
+    assert!(
+        run.deepest_penetration <= settings.thickness,
+        "{} m deep",
+        run.deepest_penetration
+    );
+}
