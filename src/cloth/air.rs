@@ -2,8 +2,9 @@
 //! it, and the wind that moves the air.
 //!
 //! **The force on a triangle** (the thin-plate model; both faces alike). With `u` the
-//! triangle's mean velocity minus the wind at its centroid, `A` its area, `n` its unit normal
-//! turned to face along `u` and `c = |n . u| / |u|` (the cosine between flow and normal):
+//! triangle's mean velocity minus the mean wind at its corners, `A` its area, `n` its unit
+//! normal turned to face along `u` and `c = |n . u| / |u|` (the cosine between flow and
+//! normal):
 //!
 //! - drag, along `-u`: `1/2 rho C_d A |u|^2 c`;
 //! - lift, across the flow in the plane of `u` and `n`, away from the face the air meets:
