@@ -71,3 +71,42 @@ fn stepping_allocates_nothing() {
     COUNTING.with(|c| c.set(false));
     assert_eq!(after, before);
 }
+
+#[test]
+fn stepping_in_gusty_wind_with_sources_allocates_nothing() {
+    use bevy_drape::cloth::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
+    let scene = HangingCloth { n: 12 };
+    let mut sim = scene.build();
+    let settings = SolverSettings {
+        air: Some(AirSettings::default()),
+        ..SolverSettings::default()
+    };
+    let wind = WindField {
+        velocity: bevy::math::Vec3::new(0.0, 0.0, 6.0),
+        gusts: Gusts {
+            strength: 2.0,
+            ..Gusts::default()
+        },
+        sources: vec![WindSourceDesc {
+            position: bevy::math::Vec3::new(0.5, 1.0, -1.0),
+            shape: WindShape::Directional {
+                direction: bevy::math::Vec3::Z,
+            },
+            speed: 5.0,
+            radius: 2.0,
+            falloff: Falloff::Smooth,
+        }],
+    };
+    sim.set_wind(&wind, 0.0);
+    sim.step(&settings, GRAVITY, 1.0 / 60.0).unwrap();
+    COUNTING.with(|c| c.set(true));
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    for frame in 1..30 {
+        sim.set_wind(&wind, frame as f32 / 60.0);
+        sim.step(&settings, GRAVITY, 1.0 / 60.0).unwrap();
+    }
+    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    COUNTING.with(|c| c.set(false));
+    assert_eq!(after, before);
+    assert!(sim.is_finite());
+}
