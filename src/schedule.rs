@@ -104,7 +104,7 @@ pub struct DrapeSchedulePlugin {
 
 impl DrapeSchedulePlugin {
     /// Simulates in `schedule`, which should be a fixed-timestep schedule.
-    pub fn new(schedule: impl ScheduleLabel) -> Self {
+    pub(crate) fn new(schedule: impl ScheduleLabel) -> Self {
         Self {
             schedule: schedule.intern(),
         }

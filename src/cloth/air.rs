@@ -57,7 +57,7 @@ impl Default for AirSettings {
 
 impl AirSettings {
     /// Checks that every coefficient is finite and not negative.
-    pub fn validate(&self) -> Result<(), ClothError> {
+    pub(crate) fn validate(&self) -> Result<(), ClothError> {
         for (name, value) in [
             ("air.drag", self.drag),
             ("air.lift", self.lift),
@@ -137,8 +137,9 @@ impl Default for Gusts {
 const GUST_WAVES: u32 = 6;
 
 impl Gusts {
+    #[cfg(test)]
     /// The gust velocity at `p` at time `t`.
-    pub fn velocity_at(&self, p: Vec3, t: f32) -> Vec3 {
+    pub(crate) fn velocity_at(&self, p: Vec3, t: f32) -> Vec3 {
         self.waves(t)
             .map_or(Vec3::ZERO, |waves| waves.velocity_at(p))
     }
@@ -272,7 +273,7 @@ pub enum Falloff {
 
 impl Falloff {
     /// The strength at `fraction` of the radius (0 at and past the radius).
-    pub fn at(self, fraction: f32) -> f32 {
+    pub(crate) fn at(self, fraction: f32) -> f32 {
         if !(0.0..1.0).contains(&fraction) {
             return 0.0;
         }
@@ -313,7 +314,7 @@ pub struct WindSourceDesc {
 
 impl WindSourceDesc {
     /// The velocity it adds at `p`.
-    pub fn velocity_at(&self, p: Vec3) -> Vec3 {
+    pub(crate) fn velocity_at(&self, p: Vec3) -> Vec3 {
         if !(self.radius > 0.0 && self.speed.is_finite()) {
             return Vec3::ZERO;
         }
@@ -342,9 +343,10 @@ pub struct WindField {
 }
 
 impl WindField {
+    #[cfg(test)]
     /// The wind velocity at `p` at time `t` (finite: a source or gust that is not gives
     /// nothing).
-    pub fn velocity_at(&self, p: Vec3, t: f32) -> Vec3 {
+    pub(crate) fn velocity_at(&self, p: Vec3, t: f32) -> Vec3 {
         let mut v = self.velocity + self.gusts.velocity_at(p, t);
         for source in &self.sources {
             v += source.velocity_at(p);

@@ -162,7 +162,7 @@ impl RigidMotion {
 
     /// The rigid velocity at point `x`.
     #[inline]
-    pub fn velocity_at(&self, x: Vec3A) -> Vec3A {
+    pub(crate) fn velocity_at(&self, x: Vec3A) -> Vec3A {
         self.linear_velocity + self.angular_velocity.cross(x - self.center_of_mass)
     }
 }

@@ -36,7 +36,7 @@ impl Default for PonchoDesc {
 
 impl PonchoDesc {
     /// The grid spacing, metres.
-    pub fn spacing(&self) -> f32 {
+    pub(crate) fn spacing(&self) -> f32 {
         self.size / (self.vertices.max(2) - 1) as f32
     }
 

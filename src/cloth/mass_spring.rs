@@ -95,7 +95,7 @@ impl Default for SpringSettings {
 
 impl SpringSettings {
     /// Every constant with its name, for validation.
-    pub fn named(&self) -> [(&'static str, f32); 6] {
+    pub(crate) fn named(&self) -> [(&'static str, f32); 6] {
         [
             ("structural stiffness", self.structural.stiffness),
             ("structural damping", self.structural.damping),

@@ -400,7 +400,7 @@ impl ClothModel {
     }
 
     /// Number of particles.
-    pub fn particle_count(&self) -> usize {
+    pub(crate) fn particle_count(&self) -> usize {
         self.rest_positions.len()
     }
 

@@ -87,7 +87,7 @@ impl FrameStep {
     }
 
     /// The velocity of the world point `p` moving with the frame, at the end of the step.
-    pub fn velocity_at(&self, p: Vec3A) -> Vec3A {
+    pub(crate) fn velocity_at(&self, p: Vec3A) -> Vec3A {
         self.linear_velocity + self.angular_velocity.cross(p - self.end.translation)
     }
 

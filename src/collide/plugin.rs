@@ -66,10 +66,10 @@ pub struct ClothCollider {
 
 impl ClothCollider {
     /// The default margin, metres.
-    pub const DEFAULT_MARGIN: f32 = 0.005;
+    pub(crate) const DEFAULT_MARGIN: f32 = 0.005;
 
     /// A collider of `shape` with the default material and margin.
-    pub fn new(shape: ColliderShape) -> Self {
+    pub(crate) fn new(shape: ColliderShape) -> Self {
         Self {
             shape,
             material: ContactMaterial::default(),

@@ -37,7 +37,7 @@ impl RigidPose {
     }
 
     /// The pose a fraction `t` of the way to `to`: translation lerped, rotation slerped.
-    pub fn interpolate(&self, to: &Self, t: f32) -> Self {
+    pub(crate) fn interpolate(&self, to: &Self, t: f32) -> Self {
         Self {
             translation: self.translation.lerp(to.translation, t),
             rotation: self.rotation.slerp(to.rotation, t),
@@ -46,7 +46,7 @@ impl RigidPose {
 
     /// The constant linear and angular velocity (world frame) that carries this pose to `to`
     /// in `dt` seconds; zero for `dt <= 0`.
-    pub fn velocity_to(&self, to: &Self, dt: f32) -> (Vec3A, Vec3A) {
+    pub(crate) fn velocity_to(&self, to: &Self, dt: f32) -> (Vec3A, Vec3A) {
         if dt.is_nan() || dt <= 0.0 {
             return (Vec3A::ZERO, Vec3A::ZERO);
         }
@@ -303,7 +303,7 @@ impl SolverCollider {
     /// The velocity of the collider's material point at world position `point` when the
     /// collider is at `pose`: `v + omega x (point - origin)`.
     #[inline]
-    pub fn velocity_at(&self, pose: &RigidPose, point: Vec3A) -> Vec3A {
+    pub(crate) fn velocity_at(&self, pose: &RigidPose, point: Vec3A) -> Vec3A {
         self.linear_velocity + self.angular_velocity.cross(point - pose.translation)
     }
 

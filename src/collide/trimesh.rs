@@ -79,7 +79,7 @@ pub struct TriMesh {
 
 /// The closest point of a [`TriMesh`] to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClosestPoint {
+pub(crate) struct ClosestPoint {
     /// The point on the mesh.
     pub point: Vec3A,
     /// The triangle it is on.
@@ -198,7 +198,7 @@ impl TriMesh {
     }
 
     /// The closest point of the mesh to `p` within `max_distance`, if any.
-    pub fn closest_point(&self, p: Vec3A, max_distance: f32) -> Option<ClosestPoint> {
+    pub(crate) fn closest_point(&self, p: Vec3A, max_distance: f32) -> Option<ClosestPoint> {
         let mut best: Option<ClosestPoint> = None;
         let mut best_sq = max_distance * max_distance;
         // A fixed stack: the tree is balanced, so its depth is about log2(triangles / 4).
