@@ -30,8 +30,7 @@ use bevy::math::Vec3;
 use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
 use drape_scenes::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
 use drape_scenes::scenes::{
-    Collisions, CollisionsRun, Drape, DrapeRun, FRAME_RATE, Flag, FlagRun, HangingCloth, SceneRun,
-    SheetDrop, SheetDropRun, median,
+    Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, SheetDrop, median,
 };
 
 fn main() {
@@ -121,14 +120,11 @@ fn run() -> Result<(), String> {
     match scene.as_str() {
         "s1" => {
             let scene = HangingCloth { n };
-            let mut all_frames = Vec::new();
-            let mut last: Option<SceneRun> = None;
-            for _ in 0..runs.max(1) {
-                let run = scene.run(&settings, frames);
-                all_frames.extend_from_slice(&run.trajectory.frame_seconds);
-                last = Some(run);
-            }
-            let run = last.expect("at least one run");
+            let (run, all_frames) = repeat(
+                runs,
+                || scene.run(&settings, frames),
+                |r| &r.trajectory.frame_seconds,
+            );
             let vec = |v: bevy::math::Vec3| format!("[{:.5},{:.5},{:.5}]", v.x, v.y, v.z);
             let frames = run.sample_frames();
             let at = |track: &[bevy::math::Vec3]| -> Vec<String> {
@@ -166,14 +162,8 @@ fn run() -> Result<(), String> {
         }
         "s2" => {
             let scene = Drape { n };
-            let mut all_frames = Vec::new();
-            let mut last: Option<DrapeRun> = None;
-            for _ in 0..runs.max(1) {
-                let run = scene.run(&settings, frames);
-                all_frames.extend_from_slice(&run.frame_seconds);
-                last = Some(run);
-            }
-            let run = last.expect("at least one run");
+            let (run, all_frames) =
+                repeat(runs, || scene.run(&settings, frames), |r| &r.frame_seconds);
             let x = &run.sim.state().positions;
             let centre = x[(n / 2 * n + n / 2) as usize];
             println!(
@@ -193,14 +183,8 @@ fn run() -> Result<(), String> {
         }
         "drop" => {
             let scene = SheetDrop { n };
-            let mut all_frames = Vec::new();
-            let mut last: Option<SheetDropRun> = None;
-            for _ in 0..runs.max(1) {
-                let run = scene.run(&settings, frames);
-                all_frames.extend_from_slice(&run.frame_seconds);
-                last = Some(run);
-            }
-            let run = last.expect("at least one run");
+            let (run, all_frames) =
+                repeat(runs, || scene.run(&settings, frames), |r| &r.frame_seconds);
             println!(
                 "{{\"scene\":\"drop\",\"n\":{n},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"max_strain\":{:.6},\"finite\":{}}}",
                 settings.self_collision,
@@ -279,14 +263,8 @@ fn run() -> Result<(), String> {
         }
         "collisions" => {
             let scene = Collisions { n };
-            let mut all_frames = Vec::new();
-            let mut last = None;
-            for _ in 0..runs.max(1) {
-                let run = scene.run(&settings, frames);
-                all_frames.extend_from_slice(&run.frame_seconds);
-                last = Some(run);
-            }
-            let run: CollisionsRun = last.expect("at least one run");
+            let (run, all_frames) =
+                repeat(runs, || scene.run(&settings, frames), |r| &r.frame_seconds);
             let touched: Vec<String> = run.touched.iter().map(|t| t.to_string()).collect();
             println!(
                 "{{\"scene\":\"collisions\",\"n\":{n},\"method\":\"{method}\",\"substeps_used\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"touched\":[{}],\"deepest_penetration\":{:.6},\"finite\":{}}}",
@@ -302,6 +280,23 @@ fn run() -> Result<(), String> {
             "unknown scene {other} (s1, s2, s3, drop, wind, collisions)"
         )),
     }
+}
+
+/// Runs a scene `runs` times (at least once): the last run, and every frame's wall time of
+/// all of them (`frame_seconds` picks a run's).
+fn repeat<R>(
+    runs: u32,
+    run: impl Fn() -> R,
+    frame_seconds: impl Fn(&R) -> &[f64],
+) -> (R, Vec<f64>) {
+    let mut all = Vec::new();
+    let mut last = run();
+    all.extend_from_slice(frame_seconds(&last));
+    for _ in 1..runs.max(1) {
+        last = run();
+        all.extend_from_slice(frame_seconds(&last));
+    }
+    (last, all)
 }
 
 fn parse<T: std::str::FromStr>(s: &str) -> Result<T, String> {
