@@ -22,7 +22,11 @@
 //!    - friction: with the normal velocity change the contact made, `dv_n = u_n' - u_free`
 //!      (`u_free` the normal velocity the particle would have had without the contact:
 //!      after the XPBD or hybrid solve the velocity minus the push over `h`, so the cloth's
-//!      tension pressing it onto the surface counts as normal force), the tangential velocity
+//!      tension pressing it onto the surface counts as normal force; the push is the deepest
+//!      single projection of the substep, not their sum: where the edges pull a particle into
+//!      a curved collider again in every iteration, the sum counts the same pull once per
+//!      iteration, and static friction grew with the budget and held stretched edges where
+//!      they were), the tangential velocity
 //!      loses at most `mu dv_n`: it stops if `|u_t| <= mu dv_n` (static friction), else
 //!      shrinks by `mu dv_n` (kinetic);
 //!    - `v = v_surface + n u_n' + u_t'`;
@@ -48,7 +52,8 @@ pub(crate) struct Contact {
     pub collider: u32,
     /// The outward surface normal at the contact (world).
     pub normal: Vec3A,
-    /// How far the particle was pushed out this substep, metres.
+    /// The deepest single push out of the collider this substep, metres (the normal
+    /// displacement friction is measured against).
     pub push: f32,
     /// The pre-contact normal velocity relative to the surface, m/s (negative approaching).
     pub approach: f32,
@@ -154,7 +159,7 @@ impl ContactScratch {
                     };
                 }
                 contact.normal = n;
-                contact.push += depth;
+                contact.push = contact.push.max(depth);
             }
         }
     }
