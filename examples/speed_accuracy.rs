@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bevy_drape::cloth::SolverMethod;
+use drape_scenes::poncho::CharacterMotion;
 use drape_scenes::scenes::FRAME_RATE;
 use drape_scenes::study::{
     self, Budget, REFERENCE_SUBSTEPS, RUN_FRAMES, STUDY_N, StudyPoint, TRAJECTORY_FRAMES,
@@ -567,6 +568,91 @@ fn main() -> Result<(), Box<dyn Error>> {
                 ),
             ],
             legend: SeriesLabelPosition::LowerRight,
+        },
+    )?);
+
+    // 6. The main scene: strain against cost for every budget and motion.
+    let (budgets, motions, steps) = if quick {
+        (vec![(4, 2), (8, 2)], vec![CharacterMotion::InPlace], 180)
+    } else {
+        (
+            study::main_scene_budgets(),
+            CharacterMotion::ALL[..4].to_vec(),
+            600,
+        )
+    };
+    let points = study::main_scene_points(&budgets, &motions, steps)?;
+    let mut csv = String::from(
+        "motion,substeps,iterations,stable,ms_per_simulated_second,step_max_strain_median,step_max_strain_max,edge_strain_p999\n",
+    );
+    for p in &points {
+        writeln!(
+            csv,
+            "{},{},{},{},{:.2},{:.5},{:.5},{:.5}",
+            p.motion.name(),
+            p.substeps,
+            p.iterations,
+            p.stable,
+            p.ms_per_second,
+            p.step_max_strain_median,
+            p.step_max_strain_max,
+            p.edge_strain_p999
+        )?;
+        println!(
+            "  S3 {:>9} {:>2} x {}: {:>7.1} ms/s, step max strain median {:.1}% worst {:.1}%, p99.9 edge {:.2}%",
+            p.motion.name(),
+            p.substeps,
+            p.iterations,
+            p.ms_per_second,
+            100.0 * p.step_max_strain_median,
+            100.0 * p.step_max_strain_max,
+            100.0 * p.edge_strain_p999
+        );
+    }
+    written.push(write_csv(&out, "s3_strain_vs_cost", &csv)?);
+    // One line per motion and iteration count, through its substep counts.
+    let s3_series = |value: fn(&study::MainScenePoint) -> f32| {
+        let mut series = Vec::new();
+        for (k, motion) in motions.iter().enumerate() {
+            for iterations in [2, 4] {
+                let line: Vec<(f64, f64)> = points
+                    .iter()
+                    .filter(|p| p.motion == *motion && p.iterations == iterations && p.stable)
+                    .map(|p| (p.ms_per_second, value(p) as f64))
+                    .collect();
+                if line.is_empty() {
+                    continue;
+                }
+                let name = format!("{} ({iterations} iterations)", motion.name());
+                series.push(if iterations == 2 {
+                    Series::line(name, COLORS[k % COLORS.len()], line)
+                } else {
+                    Series::scatter(name, COLORS[k % COLORS.len()], line)
+                });
+            }
+        }
+        series
+    };
+    written.extend(write_chart(
+        &out,
+        &Chart {
+            file: "s3_max_strain_vs_cost",
+            title: "S3: largest strain of a step (median over the steps) against cost",
+            x_label: "cloth cost, ms of one core per simulated second",
+            y_label: "median step's largest strain",
+            series: s3_series(|p| p.step_max_strain_median),
+            legend: SeriesLabelPosition::UpperRight,
+        },
+    )?);
+    written.extend(write_chart(
+        &out,
+        &Chart {
+            file: "s3_p999_strain_vs_cost",
+            title: "S3: 99.9th percentile edge strain against cost",
+            x_label: "cloth cost, ms of one core per simulated second",
+            y_label: "99.9th percentile strain",
+            series: s3_series(|p| p.edge_strain_p999),
+            legend: SeriesLabelPosition::UpperRight,
         },
     )?);
 

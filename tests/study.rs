@@ -174,3 +174,25 @@ fn the_adaptive_count_rises_at_once_and_falls_after_calm_steps_within_its_bounds
     }
     assert_eq!(count, 2);
 }
+
+#[test]
+fn the_main_scene_strain_falls_as_substeps_or_iterations_grow() {
+    use drape_scenes::poncho::CharacterMotion;
+    let budgets = [(4, 2), (8, 2), (16, 2), (8, 4)];
+    let points = study::main_scene_points(&budgets, &[CharacterMotion::InPlace], 600)
+        .expect("the scene's files load from the repository");
+    for p in &points {
+        println!(
+            "S3 {} x {}: step max strain median {:.3}, p99.9 {:.3}",
+            p.substeps, p.iterations, p.step_max_strain_median, p.edge_strain_p999
+        );
+        assert!(p.stable);
+    }
+    let median = |i: usize| points[i].step_max_strain_median;
+    let p999 = |i: usize| points[i].edge_strain_p999;
+    // Substeps: 4, 8, 16 (x 2).
+    assert!(median(0) > median(1) && median(1) > median(2));
+    assert!(p999(0) > p999(1) && p999(1) > p999(2));
+    // Iterations: 8 x 4 against 8 x 2.
+    assert!(median(3) < median(1) && p999(3) < p999(1));
+}

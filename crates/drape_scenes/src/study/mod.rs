@@ -27,10 +27,15 @@
 //!   and XPBD against plain PBD as the iteration count grows.
 //! - [`fabrik_residuals`]: FABRIK's distance to the target after each iteration count.
 //! - [`spline_errors`]: interpolation error against key spacing for both tangent formulas.
+//! - [`main_scene_points`]: the main scene's (S3) per-step strain against cost for each budget
+//!   and motion.
 
 use std::time::Instant;
 
+mod main_scene;
 mod skeleton;
+
+pub use main_scene::{MainScenePoint, main_scene_budgets, main_scene_points};
 
 pub use skeleton::{
     FabrikCurve, SplineRow, fabrik_residuals, ik_chains, key_times, random_pose, smooth_motion,
