@@ -10,7 +10,7 @@ fn s1_step(c: &mut Criterion) {
     let methods = [
         ("xpbd", SolverMethod::Xpbd),
         ("mass_spring", SolverMethod::MassSpring),
-        ("hybrid", SolverMethod::Hybrid),
+        ("hybrid", SolverMethod::Hybrid { long_range: false }),
     ];
     let mut group = c.benchmark_group("s1_step");
     group.sample_size(20);

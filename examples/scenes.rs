@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo run --release --example scenes -- s1|s2|s3|drop --n 64 [--substeps 8] [--iterations 1]
-//!     [--method xpbd|pbd|mass-spring|hybrid] [--stiffness 0.5] [--stretch-compliance 0]
+//!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1]
@@ -105,10 +105,11 @@ fn run() -> Result<(), String> {
         "xpbd" => SolverMethod::Xpbd,
         "pbd" => SolverMethod::Pbd { stiffness },
         "mass-spring" => SolverMethod::MassSpring,
-        "hybrid" => SolverMethod::Hybrid,
+        "hybrid" => SolverMethod::Hybrid { long_range: false },
+        "hybrid-long-range" => SolverMethod::Hybrid { long_range: true },
         other => {
             return Err(format!(
-                "unknown method {other} (xpbd, pbd, mass-spring, hybrid)"
+                "unknown method {other} (xpbd, pbd, mass-spring, hybrid, hybrid-long-range)"
             ));
         }
     };

@@ -70,7 +70,7 @@ struct Label(usize);
 
 const METHODS: [SolverMethod; 3] = [
     SolverMethod::MassSpring,
-    SolverMethod::Hybrid,
+    SolverMethod::Hybrid { long_range: false },
     SolverMethod::Xpbd,
 ];
 

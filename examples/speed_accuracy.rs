@@ -205,7 +205,7 @@ fn cost_chart_series(
         Series::line(
             "hybrid (2 iterations)",
             COLORS[2],
-            curve(SolverMethod::Hybrid),
+            curve(SolverMethod::Hybrid { long_range: false }),
         ),
         Series::line("mass-spring", COLORS[1], curve(SolverMethod::MassSpring)),
         Series::scatter(
@@ -346,7 +346,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 Series::line(
                     "hybrid (2 iterations)",
                     COLORS[2],
-                    strain_series(SolverMethod::Hybrid),
+                    strain_series(SolverMethod::Hybrid { long_range: false }),
                 ),
                 Series::line(
                     "mass-spring",

@@ -26,9 +26,18 @@ fn sheet(orientation: Quat, density: f32) -> ClothSolver {
     ClothSolver::new(ClothModel::grid(&grid, density).unwrap())
 }
 
+/// The velocity of the centre of mass: momentum over mass (the arithmetic mean of the
+/// particles' velocities is not conserved by internal forces when their masses differ).
 fn mean_velocity(sim: &ClothSolver) -> Vec3 {
-    let v = &sim.state().velocities;
-    v.iter().map(|&v| Vec3::from(v)).sum::<Vec3>() / v.len() as f32
+    let state = sim.state();
+    let (mut momentum, mut mass) = (Vec3::ZERO, 0.0);
+    for (v, &w) in state.velocities.iter().zip(&state.inverse_masses) {
+        if w > 0.0 {
+            momentum += Vec3::from(*v) / w;
+            mass += 1.0 / w;
+        }
+    }
+    momentum / mass
 }
 
 #[test]
@@ -39,7 +48,7 @@ fn a_flat_sheet_falls_at_the_terminal_velocity_of_the_drag_law() {
         SolverMethod::Xpbd,
         SolverMethod::Pbd { stiffness: 1.0 },
         SolverMethod::MassSpring,
-        SolverMethod::Hybrid,
+        SolverMethod::Hybrid { long_range: false },
     ] {
         for (density, drag) in [(0.1, 1.0), (0.3, 1.4), (0.05, 0.7)] {
             let air = AirSettings {
@@ -67,7 +76,8 @@ fn a_flat_sheet_falls_at_the_terminal_velocity_of_the_drag_law() {
                 "{method:?}: {} m/s, the drag law gives {expected}",
                 -v.y
             );
-            assert!(v.with_y(0.0).length() < 1e-3 * expected);
+            // It falls straight: a flat sheet flutters a little, sideways drift under 0.2%.
+            assert!(v.with_y(0.0).length() < 2e-3 * expected);
         }
     }
 }
@@ -135,8 +145,10 @@ fn a_cloth_moving_with_the_air_feels_no_force_and_one_against_it_slows() {
         mean_velocity(&sim)
     };
     let with_the_air = run(velocity);
+    // Within the resolution of f32 velocities taken from positions 10 m from the origin
+    // (an ulp of 1e-6 m over a substep of 1/480 s is 5e-4 m/s).
     assert!(
-        (with_the_air - velocity).length() < 1e-4,
+        (with_the_air - velocity).length() < 1e-3,
         "moving with the wind: {with_the_air}, started at {velocity}"
     );
     let in_still_air = run(Vec3::ZERO);

@@ -395,7 +395,7 @@ fn switching_the_method_of_a_cloth_entity_keeps_its_motion() {
         .fold(0.0, f32::max);
     {
         let mut settings = app.world_mut().get_mut::<ClothSettings>(cloth).unwrap();
-        settings.solver.method = SolverMethod::Hybrid;
+        settings.solver.method = SolverMethod::Hybrid { long_range: false };
         settings.solver.auto_substeps = true;
     }
     let mut cursor = MessageCursor::default();

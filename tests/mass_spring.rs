@@ -223,7 +223,7 @@ fn hybrid_holds_s1_at_least_five_times_tighter_than_mass_spring_at_the_same_budg
         ..base
     };
     let hybrid = SolverSettings {
-        method: SolverMethod::Hybrid,
+        method: SolverMethod::Hybrid { long_range: false },
         ..base
     };
     let (ms, ms_diverged) = run_s1(32, &mass_spring, 60);
@@ -254,7 +254,10 @@ fn switching_the_method_keeps_positions_and_velocities() {
         .map(|v| v.length())
         .fold(0.0, f32::max);
     assert!(speed > 0.1, "the cloth is moving");
-    for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
+    for method in [
+        SolverMethod::MassSpring,
+        SolverMethod::Hybrid { long_range: false },
+    ] {
         let mut switched = sim.clone();
         let settings = SolverSettings {
             method,
@@ -285,7 +288,10 @@ fn switching_the_method_keeps_positions_and_velocities() {
 
 #[test]
 fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
-    for method in [SolverMethod::MassSpring, SolverMethod::Hybrid] {
+    for method in [
+        SolverMethod::MassSpring,
+        SolverMethod::Hybrid { long_range: false },
+    ] {
         let grid = bevy_drape::cloth::GridDesc::square(0.5, 10, Vec3::new(0.0, 0.3, 0.0));
         let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
         sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
@@ -321,4 +327,28 @@ fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
         assert!(lowest >= settings.thickness - 1e-5 && lowest < 0.01);
         assert!(fastest < 1e-2);
     }
+}
+
+#[test]
+fn the_hybrid_holds_its_structural_edges_only_unless_its_method_asks_for_long_range() {
+    // S1 at N = 16, 1 s at 96 substeps (above the hybrid's stability bound).
+    let frames = 60;
+    let with_flag = |long_range_attachments: bool, long_range: bool| SolverSettings {
+        method: SolverMethod::Hybrid { long_range },
+        substeps: 96,
+        long_range_attachments,
+        ..Default::default()
+    };
+    // The settings' flag is XPBD's and PBD's: the hybrid runs the same either way.
+    let (a, a_diverged) = run_s1(16, &with_flag(true, false), frames);
+    let (b, _) = run_s1(16, &with_flag(false, false), frames);
+    assert_eq!(a_diverged, None);
+    assert_eq!(a.state().positions, b.state().positions);
+    // With long-range attachments it is a different, stiffer cloth.
+    let (c, c_diverged) = run_s1(16, &with_flag(false, true), frames);
+    assert_eq!(c_diverged, None);
+    assert_ne!(a.state().positions, c.state().positions);
+    let (plain, extra) = (a.strain().max, c.strain().max);
+    println!("hybrid at N = 16, 96 substeps: strain {plain:.4} alone, {extra:.4} with long range");
+    assert!(extra < plain, "{extra} against {plain}");
 }

@@ -93,14 +93,14 @@ impl IsometricPair {
     }
 }
 
-/// Isometric pairs ready for their one projection per substep.
+/// Isometric pairs ready for their projections.
 ///
-/// Bending is projected once per substep (see [`super::ClothSolver::step`]), so its XPBD
-/// multiplier is zero whenever it is projected: the step is `dl = -C / (sum_i w_i K_i^2 +
-/// alpha~)` and `x_i += w_i K_i dl`, which with `g_i = -w_i K_i / (sum_j w_j K_j^2 + alpha~)`
-/// is `x_i += g_i C`. The factors `g_i` depend only on the inverse masses and `alpha~`, so
-/// they are computed once ([`PreparedIsometric::prepare`]) and a projection is twelve
-/// multiply-adds: no division and no multiplier to store.
+/// The XPBD step of a pair is `dl = -(C + alpha~ lambda) / (sum_i w_i K_i^2 + alpha~)` and
+/// `x_i += w_i K_i dl`, which with `g_i = -w_i K_i / (sum_j w_j K_j^2 + alpha~)` is
+/// `x_i += g_i (C + alpha~ lambda)`. The factors `g_i` depend only on the inverse masses and
+/// `alpha~`, so they are computed once ([`PreparedIsometric::prepare`]) and a projection is
+/// a few multiply-adds and no division; the multiplier `lambda` (a vector, as `C` is) is
+/// accumulated over a substep's iterations.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct PreparedIsometric {
     pairs: Vec<PreparedPair>,
@@ -114,6 +114,10 @@ struct PreparedPair {
     weights: [f32; 4],
     /// `g_i`.
     move_by: [f32; 4],
+    /// The pair's `alpha~` (with its `compliance_scale^2`).
+    alpha_tilde: f32,
+    /// `-1 / (sum_j w_j K_j^2 + alpha~)`.
+    step: f32,
 }
 
 impl PreparedIsometric {
@@ -149,17 +153,28 @@ impl PreparedIsometric {
                 particles: pair.particles,
                 weights: k,
                 move_by,
+                alpha_tilde: at,
+                step: -inverse,
             });
         }
     }
 
-    /// Projects every pair once, in order, from a zero multiplier. Does nothing if `x` does
-    /// not hold every particle the pairs name.
-    pub(crate) fn project(&self, x: &mut [Vec3A]) {
-        if x.len() < self.bound {
+    /// How many pairs were prepared (the length [`PreparedIsometric::project`] wants of its
+    /// multipliers).
+    pub(crate) fn len(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Projects every pair once, in order, with its multiplier `lambdas[k]` accumulated
+    /// (XPBD: `dl = -(C + alpha~ lambda) / (sum_j w_j K_j^2 + alpha~)`, so repeated
+    /// iterations converge to the compliance's answer rather than stiffening; zero the
+    /// multipliers at the start of each substep). Does nothing if `x` does not hold every
+    /// particle the pairs name or `lambdas` is not one per pair.
+    pub(crate) fn project(&self, x: &mut [Vec3A], lambdas: &mut [Vec3A]) {
+        if x.len() < self.bound || lambdas.len() != self.pairs.len() {
             return;
         }
-        for pair in &self.pairs {
+        for (pair, lambda) in self.pairs.iter().zip(lambdas) {
             let [i0, i1, i2, i3] = pair.particles.map(|i| i as usize);
             let k = pair.weights;
             let g = pair.move_by;
@@ -168,7 +183,15 @@ impl PreparedIsometric {
                 // The four particles of a pair are distinct (`prepare`): each is read once
                 // and written once.
                 let p = [i0, i1, i2, i3].map(|i| *x.get_unchecked(i));
-                let c = p[0] * k[0] + p[1] * k[1] + p[2] * k[2] + p[3] * k[3];
+                // C = sum_i K_i x_i with sum_i K_i = 0, taken relative to x_0: the same
+                // value, without the rounding of K's sum times the absolute position (a
+                // force that grows with the distance from the origin and drifts a cloth far
+                // from it).
+                let c = (p[1] - p[0]) * k[1]
+                    + (p[2] - p[0]) * k[2]
+                    + (p[3] - p[0]) * k[3]
+                    + *lambda * pair.alpha_tilde;
+                *lambda += c * pair.step;
                 *x.get_unchecked_mut(i0) = p[0] + c * g[0];
                 *x.get_unchecked_mut(i1) = p[1] + c * g[1];
                 *x.get_unchecked_mut(i2) = p[2] + c * g[2];
@@ -197,7 +220,7 @@ pub(crate) fn project_isometric(
     if weight <= 0.0 {
         return;
     }
-    let c = x[i0] * k[0] + x[i1] * k[1] + x[i2] * k[2] + x[i3] * k[3];
+    let c = (x[i1] - x[i0]) * k[1] + (x[i2] - x[i0]) * k[2] + (x[i3] - x[i0]) * k[3];
     let dl = (-c - *lambda * alpha_tilde) / (weight + alpha_tilde);
     *lambda += dl;
     x[i0] += dl * (w[i0] * k[0]);
@@ -270,13 +293,25 @@ mod tests {
             ..iso
         };
         prepared.prepare(&[iso, outside], &w, alpha_tilde);
+        assert_eq!(prepared.len(), 1);
         let mut fast = folded;
-        prepared.project(&mut fast);
+        let mut lambdas = [Vec3A::ZERO];
+        prepared.project(&mut fast, &mut lambdas);
         for (a, b) in fast.iter().zip(&general) {
             assert!(a.distance(*b) < 1e-6, "{a} {b}");
         }
+        assert!(lambdas[0].distance(lambda) < 1e-6);
         assert_eq!(fast[0], folded[0]);
         assert!(fast[2].distance(folded[2]) > 1e-3, "the fold was corrected");
+        // And every later projection is the general one's with the multiplier it accumulated.
+        for _ in 0..5 {
+            project_isometric(&mut general, &w, &iso, at, &mut lambda);
+            prepared.project(&mut fast, &mut lambdas);
+            for (a, b) in fast.iter().zip(&general) {
+                assert!(a.distance(*b) < 1e-5, "{a} {b}");
+            }
+            assert!(lambdas[0].distance(lambda) < 1e-5);
+        }
     }
 
     #[test]

@@ -27,10 +27,16 @@ pub enum SolverMethod {
     /// [`SolverSettings::springs`]; `iterations`, compliances and long-range attachments are
     /// ignored.
     MassSpring,
-    /// XPBD distance constraints on the structural edges (with `stretch_compliance`, and the
-    /// long-range attachments if on), shear and bend springs explicit. Uses
-    /// [`SolverSettings::springs`] for the shear and bend springs.
-    Hybrid,
+    /// XPBD distance constraints on the structural edges only (with `stretch_compliance`),
+    /// shear and bend springs explicit, from [`SolverSettings::springs`]. The long-range
+    /// attachments (tethers and stretch limits, see
+    /// [`SolverSettings::long_range_attachments`]) are an extra the hybrid takes only with
+    /// `long_range: true`; `SolverSettings::long_range_attachments` does not apply to it.
+    Hybrid {
+        /// Whether to project the long-range attachments too. `false` is the method as
+        /// defined: constraints on the structural edges and nothing else.
+        long_range: bool,
+    },
 }
 
 impl SolverMethod {
@@ -40,13 +46,14 @@ impl SolverMethod {
             SolverMethod::Xpbd => "xpbd",
             SolverMethod::Pbd { .. } => "pbd",
             SolverMethod::MassSpring => "mass-spring",
-            SolverMethod::Hybrid => "hybrid",
+            SolverMethod::Hybrid { long_range: false } => "hybrid",
+            SolverMethod::Hybrid { long_range: true } => "hybrid-long-range",
         }
     }
 
-    /// Whether the method projects constraints (everything but [`SolverMethod::MassSpring`]).
-    pub(crate) fn uses_constraints(&self) -> bool {
-        !matches!(self, SolverMethod::MassSpring)
+    /// Whether the method is [`SolverMethod::Hybrid`], with or without long-range attachments.
+    pub(crate) fn is_hybrid(&self) -> bool {
+        matches!(self, SolverMethod::Hybrid { .. })
     }
 }
 
@@ -120,8 +127,9 @@ pub struct SolverSettings {
     /// Chentanez and Mueller 2012) and stretch limits along the straight lines of the rest
     /// shape (`cloth/stretch_limits.rs`), and, on a cloth with colliders, tethers from
     /// every free particle to the nearest particle a collider holds (rebuilt every step). All only refuse lengthening beyond the
-    /// rest shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). Default:
-    /// `true`.
+    /// rest shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). For XPBD
+    /// and PBD; mass-spring never takes them and the hybrid only with
+    /// `SolverMethod::Hybrid { long_range: true }`. Default: `true`.
     pub long_range_attachments: bool,
     /// Bend pairs whose rest shape is flat with the isometric model
     /// (`cloth/isometric_bending.rs`), calibrated to the same stiffness as the
@@ -257,6 +265,17 @@ impl Default for SolverSettings {
 }
 
 impl SolverSettings {
+    /// Whether the method projects the long-range attachments: XPBD and PBD when
+    /// [`SolverSettings::long_range_attachments`] is on, the hybrid when asked for in
+    /// [`SolverMethod::Hybrid`], mass-spring never.
+    pub(crate) fn projects_long_range(&self) -> bool {
+        match self.method {
+            SolverMethod::Xpbd | SolverMethod::Pbd { .. } => self.long_range_attachments,
+            SolverMethod::Hybrid { long_range } => long_range,
+            SolverMethod::MassSpring => false,
+        }
+    }
+
     /// Checks every field's range.
     pub fn validate(&self) -> Result<(), ClothError> {
         let checks: [(&'static str, f32, bool, &'static str); 8] = [
@@ -310,7 +329,7 @@ impl SolverSettings {
                     stiffness > 0.0 && stiffness <= 1.0,
                     "in (0, 1]",
                 ),
-                SolverMethod::MassSpring | SolverMethod::Hybrid => ("method", 0.0, true, ""),
+                SolverMethod::MassSpring | SolverMethod::Hybrid { .. } => ("method", 0.0, true, ""),
             },
         ];
         if let Some(air) = self.air {
@@ -371,7 +390,7 @@ impl SolverSettings {
                 });
             }
         }
-        if self.method.uses_constraints() && self.long_range_attachments && self.iterations < 2 {
+        if self.projects_long_range() && self.iterations < 2 {
             // Measured on S1: one sweep of long-range and edge constraints per substep pumps
             // energy into a hanging cloth (max strain 67% at N = 32 and 16 substeps, 414% at
             // N = 64 and 8), while two sweeps hold it below 1%.

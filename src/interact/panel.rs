@@ -258,7 +258,7 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
                 SolverMethod::Xpbd,
                 SolverMethod::Pbd { stiffness: 1.0 },
                 SolverMethod::MassSpring,
-                SolverMethod::Hybrid,
+                SolverMethod::Hybrid { long_range: false },
             ] {
                 let is = std::mem::discriminant(&solver.method) == std::mem::discriminant(&method);
                 if ui.selectable_label(is, method.name()).clicked() && !is {
@@ -272,11 +272,11 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
             .text("substeps"),
     );
     // One sweep with long-range constraints gains energy: the settings refuse it.
-    let fewest = if solver.long_range_attachments { 2 } else { 1 };
+    let fewest = if solver.projects_long_range() { 2 } else { 1 };
     solver.iterations = solver.iterations.max(fewest);
     ui.add(egui::Slider::new(&mut solver.iterations, fewest..=20).text("iterations"));
     match &mut solver.method {
-        SolverMethod::Xpbd | SolverMethod::Hybrid => {
+        SolverMethod::Xpbd | SolverMethod::Hybrid { .. } => {
             ui.add(
                 egui::Slider::new(&mut solver.stretch_compliance, 0.0..=1e-2)
                     .logarithmic(true)
@@ -296,7 +296,7 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
                     .text("bend compliance, 1/(N m)"),
             );
         }
-        SolverMethod::MassSpring | SolverMethod::Hybrid => {
+        SolverMethod::MassSpring | SolverMethod::Hybrid { .. } => {
             let springs = &mut solver.springs;
             for (name, constants) in [
                 ("structural k, N/m", &mut springs.structural),
@@ -325,7 +325,19 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
     ui.add(egui::Slider::new(&mut solver.thickness, 0.0..=0.05).text("thickness, m"));
     ui.add(egui::Slider::new(&mut solver.friction, 0.0..=1.5).text("friction"));
     ui.checkbox(&mut solver.self_collision, "self-collision");
-    ui.checkbox(&mut solver.long_range_attachments, "long-range attachments");
+    // The hybrid takes long-range attachments only when its method says so.
+    match &mut solver.method {
+        SolverMethod::Hybrid { long_range } => {
+            ui.checkbox(
+                long_range,
+                "long-range attachments (an extra for the hybrid)",
+            );
+        }
+        SolverMethod::MassSpring => {}
+        _ => {
+            ui.checkbox(&mut solver.long_range_attachments, "long-range attachments");
+        }
+    }
     ui.add(
         egui::Slider::new(&mut settings.inertia, 0.0..=1.0)
             .text("inertia (of the followed entity's motion)"),

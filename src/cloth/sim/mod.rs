@@ -86,6 +86,10 @@ pub struct ClothSolver {
     free_masses: Vec<f32>,
     /// The bending pairs that are not flat at rest (dihedral even with isometric bending).
     curved_pairs: Vec<BendingPair>,
+    /// The bending multipliers of the current substep: one per dihedral pair projected...
+    dihedral_lambdas: Vec<f32>,
+    /// ...and one per prepared isometric pair.
+    isometric_lambdas: Vec<Vec3A>,
     springs: Option<SpringScratch>,
     last_substeps: u32,
     colliders: Vec<SolverCollider>,
@@ -175,6 +179,8 @@ impl ClothSolver {
             edge_batches,
             tether_batches: PairBatches::default(),
             isometric_prepared: PreparedIsometric::default(),
+            dihedral_lambdas: Vec::with_capacity(model.bending_pairs.len()),
+            isometric_lambdas: Vec::with_capacity(model.bending_pairs.len()),
             weights_seen: Vec::new(),
             bend_alpha_prepared: f32::NAN.to_bits(),
             free_masses: Vec::new(),
@@ -732,7 +738,7 @@ impl ClothSolver {
     /// 20.9% without, 14.4% with; the poncho scene (S3) 55% without, 41% with.
     fn build_contact_tethers(&mut self, settings: &SolverSettings) {
         self.contact_tethers.clear();
-        if !settings.long_range_attachments || self.colliders.is_empty() {
+        if !settings.projects_long_range() || self.colliders.is_empty() {
             return;
         }
         let w = &self.state.inverse_masses;

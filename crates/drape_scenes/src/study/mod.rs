@@ -339,7 +339,10 @@ pub fn measure(
 /// substeps, mass-spring at 16 to 2048 substeps (below its stability bound it diverges).
 pub fn study_budgets() -> Vec<Budget> {
     let mut budgets = Vec::new();
-    for method in [SolverMethod::Xpbd, SolverMethod::Hybrid] {
+    for method in [
+        SolverMethod::Xpbd,
+        SolverMethod::Hybrid { long_range: false },
+    ] {
         for s in [1, 2, 4, 8, 16, 32, 64] {
             budgets.push(Budget::new(method, s, 2));
         }
