@@ -1,10 +1,11 @@
-//! FABRIK inverse kinematics (Aristidou and Lasenby 2011) on chains of hinge bones.
+//! Inverse kinematics on chains of hinge bones: a FABRIK pass (Aristidou and Lasenby 2011),
+//! then damped least squares.
 //!
 //! A chain is a run of bones of a [`Rig`], each a child of the one before, from its first
 //! bone (whose parent stays where the pose puts it) to its end bone, with an end effector at a
 //! fixed point of the end bone. The joints are the bones' origins; the distinct points of the
 //! chain are the first bone's origin, every later bone's origin that is not on top of the one
-//! before (a zero offset makes two hinges at one joint), and the effector. Each iteration:
+//! before (a zero offset makes two hinges at one joint), and the effector. A solve:
 //!
 //! 1. **Backward** (from the target): the effector is put on the target, and every point in
 //!    turn is moved along the line to the point after it until it is at its segment's length
@@ -20,16 +21,23 @@
 //!
 //! 3. **Sweep**: from the end bone back to the first, each hinge turns (within its limits)
 //!    so the effector comes as close to the target as that hinge alone can bring it (the
-//!    cyclic-coordinate step). Without it the two passes settle slowly, or short of the
-//!    target, when the hinge planes and the target disagree (measured on a shoulder of two
-//!    hinges and an elbow: 6.5% of 1000 reachable targets within 1 mm in 50 iterations).
+//!    cyclic-coordinate step).
+//! 4. **Damped least squares** (Levenberg-Marquardt) from the best pose so far, every hinge at
+//!    once: `dtheta = J^T (J J^T + mu^2 I)^-1 r` with `J` the effector's Jacobian, a hinge at a
+//!    limit that the step would push past held out of it, until the effector is within the
+//!    tolerance or the descent stalls (less than 5% gained over two steps).
 //!
-//! It stops when the effector is within the tolerance of the target or at the iteration cap.
-//! When an iteration improves the error by less than 1% twice in a row (a stall, at a limit
-//! or a singular pose), it restarts from other angles within the limits (a fixed
-//! pseudo-random sequence, so solves are repeatable); restarts count toward the cap. The best
-//! pose found is returned, so an unreachable target gets the chain reaching as far toward it
-//! as the hinges allow.
+//! Steps 1 to 3 run once, swinging the chain toward the target as a whole; step 4 then
+//! converges. After a stall (a local minimum at the limits) step 4 restarts from other angles
+//! within the limits (a fixed pseudo-random sequence, so solves are repeatable) until the
+//! iteration cap; the best pose found is returned, so an unreachable target gets the chain
+//! reaching as far toward it as the hinges allow. Measured on 10,000 random reachable targets
+//! of 40 random chains (3 to 7 hinges, random axes and offsets, limits tight, loose or none;
+//! `tests/ik.rs`), from the rest pose, release build: 99.97% within 1 mm, 2.8 us per solve on
+//! average; FABRIK's passes with the sweep and restarts alone reached 90.2% in 50 iterations
+//! (16.9 us) and 94.0% in 100: near a limit, one hinge at a time cannot agree on the last
+//! centimetres, and clamping a least-squares step instead of holding the hinge out of it
+//! loses that part of the step every time (98.6%).
 
 use bevy::math::{Quat, Vec3};
 use bevy::reflect::Reflect;
@@ -99,7 +107,8 @@ impl IkChain {
 pub struct IkSettings {
     /// Distance from the target that counts as reached, metres. Default: `0.001`.
     pub tolerance: f32,
-    /// Most iterations (restarts included). Default: `50`.
+    /// Most iterations: the FABRIK pass and each damped-least-squares step count one each,
+    /// restarts included. Default: `100`.
     pub max_iterations: u32,
     /// Whether a stalled solve may restart from other angles. A restart can land on a
     /// different solution far from the start; a solve that starts from the last step's
@@ -112,7 +121,7 @@ impl Default for IkSettings {
     fn default() -> Self {
         Self {
             tolerance: 1e-3,
-            max_iterations: 50,
+            max_iterations: 100,
             restarts: true,
         }
     }
@@ -142,6 +151,7 @@ pub struct IkScratch {
     joints: Vec<Vec3>,
     rotations: Vec<Quat>,
     path: Vec<usize>,
+    saved: Vec<f32>,
 }
 
 /// A bone's hinge angle clamped to its limits.
@@ -216,6 +226,7 @@ pub fn solve(
         joints,
         rotations,
         path,
+        saved,
     } = scratch;
     let base_frame = base(rig, chain, pose, path);
     chain_fk(rig, chain, pose, base_frame, joints, rotations);
@@ -254,104 +265,58 @@ pub fn solve(
     best.clear();
     best.extend(chain.bones.iter().map(|&b| pose.angles[b]));
     let mut best_error = joints[n].distance(target);
-    let mut error = best_error;
     let mut iterations = 0;
     let mut restarts = 0;
-    let mut stalls = 0;
     let mut seed = 0x9E37_79B9u32;
-    while iterations < settings.max_iterations && best_error > settings.tolerance {
-        iterations += 1;
-        // 1. Backward, unconstrained.
-        targets.clear();
-        targets.extend(points.iter().map(|&k| joints[k]));
-        targets[m - 1] = target;
-        for w in (1..m - 1).rev() {
-            let next = targets[w + 1];
-            let dir = (targets[w] - next).normalize_or_zero();
-            targets[w] = next + dir * lengths[w];
-        }
-        // 2. Forward, each bone about its own hinge.
-        let (mut parent_rotation, mut position) = base_frame;
-        let mut w = 0; // the distinct point at or before the current joint
-        for (k, &b) in chain.bones.iter().enumerate() {
-            position += parent_rotation * bones[b].offset;
-            if points.get(w + 1) == Some(&k) {
-                w += 1;
-            }
-            // The next distinct point this bone carries, and the vector to it in this bone's
-            // frame with the later bones at the same joint at their current angles.
-            let next_point = points.get(w + 1).copied().unwrap_or(n);
-            let mut carried = if next_point < n {
-                bones[chain.bones[next_point]].offset
-            } else {
-                chain.effector
-            };
-            for j in (k + 1..next_point.min(n)).rev() {
-                let bj = chain.bones[j];
-                carried = rig.local_rotation(bj, pose.angles[bj]) * carried;
-            }
-            let axis = parent_rotation * bones[b].axis;
-            let v0 = parent_rotation * carried;
-            let u = targets.get(w + 1).copied().unwrap_or(target) - position;
-            let (vp, up) = (v0 - axis * axis.dot(v0), u - axis * axis.dot(u));
-            if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
-                let angle = axis.dot(vp.cross(up)).atan2(vp.dot(up));
-                pose.angles[b] = clamp(rig, b, angle);
-            }
-            parent_rotation = (parent_rotation * rig.local_rotation(b, pose.angles[b])).normalize();
-        }
-        chain_fk(rig, chain, pose, base_frame, joints, rotations);
-        // 3. One sweep from the end bone back: each hinge turns the effector as close to the
-        //    target as it can (the FABRIK passes alone settle slowly where the hinge planes
-        //    and the target disagree).
-        for k in (0..n).rev() {
-            let b = chain.bones[k];
-            let parent_rotation = if k == 0 {
-                base_frame.0
-            } else {
-                rotations[k - 1]
-            };
-            let axis = parent_rotation * bones[b].axis;
-            let (v, u) = (joints[n] - joints[k], target - joints[k]);
-            let (vp, up) = (v - axis * axis.dot(v), u - axis * axis.dot(u));
-            if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
-                let turn = axis.dot(vp.cross(up)).atan2(vp.dot(up));
-                pose.angles[b] = clamp(rig, b, pose.angles[b] + turn);
-                chain_fk(rig, chain, pose, base_frame, joints, rotations);
-            }
-        }
-        let new_error = joints[n].distance(target);
-        if new_error < best_error {
-            best_error = new_error;
+    let keep = |best: &mut Vec<f32>, best_error: &mut f32, pose: &Pose, error: f32| {
+        if error < *best_error {
+            *best_error = error;
             for (slot, &b) in best.iter_mut().zip(&chain.bones) {
                 *slot = pose.angles[b];
             }
         }
-        stalls = if new_error > error * 0.99 {
-            stalls + 1
-        } else {
-            0
-        };
-        error = new_error;
-        if stalls >= 2 && best_error > settings.tolerance && !settings.restarts {
+    };
+    if iterations < settings.max_iterations && best_error > settings.tolerance {
+        // 1.-3. One FABRIK pass and sweep: the chain swings toward the target as a whole.
+        iterations += 1;
+        fabrik_pass(
+            rig, chain, pose, target, base_frame, points, lengths, targets, joints, rotations,
+        );
+        keep(best, &mut best_error, pose, joints[n].distance(target));
+    }
+    // 4. Damped least squares from the best pose so far, to the target or a stall; after a
+    //    stall, again from other angles within the limits, the best pose kept.
+    for (&b, &angle) in chain.bones.iter().zip(best.iter()) {
+        pose.angles[b] = angle;
+    }
+    while iterations < settings.max_iterations && best_error > settings.tolerance {
+        let (steps, error) = damped_least_squares(
+            rig,
+            chain,
+            pose,
+            target,
+            base_frame,
+            settings.tolerance,
+            settings.max_iterations - iterations,
+            joints,
+            rotations,
+            saved,
+        );
+        iterations += steps.max(1);
+        keep(best, &mut best_error, pose, error);
+        if best_error <= settings.tolerance || !settings.restarts {
             break;
         }
-        if stalls >= 2 && best_error > settings.tolerance {
-            // Restart from other angles within the limits.
-            restarts += 1;
-            stalls = 0;
-            for &b in &chain.bones {
-                seed ^= seed << 13;
-                seed ^= seed >> 17;
-                seed ^= seed << 5;
-                let r = seed as f32 / u32::MAX as f32;
-                let (lo, hi) = bones[b]
-                    .limits
-                    .unwrap_or((-std::f32::consts::PI, std::f32::consts::PI));
-                pose.angles[b] = lo + (hi - lo) * r;
-            }
-            chain_fk(rig, chain, pose, base_frame, joints, rotations);
-            error = joints[n].distance(target);
+        restarts += 1;
+        for &b in &chain.bones {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            let r = seed as f32 / u32::MAX as f32;
+            let (lo, hi) = bones[b]
+                .limits
+                .unwrap_or((-std::f32::consts::PI, std::f32::consts::PI));
+            pose.angles[b] = lo + (hi - lo) * r;
         }
     }
     for (&b, &angle) in chain.bones.iter().zip(best.iter()) {
@@ -363,6 +328,192 @@ pub fn solve(
         reached: best_error <= settings.tolerance,
         restarts,
     }
+}
+
+/// One FABRIK iteration with its sweep (steps 1 to 3 of the [module docs](self)) from the
+/// angles in `pose`; `joints` and `rotations` end as the new pose's forward kinematics.
+#[allow(clippy::too_many_arguments)]
+fn fabrik_pass(
+    rig: &Rig,
+    chain: &IkChain,
+    pose: &mut Pose,
+    target: Vec3,
+    base_frame: (Quat, Vec3),
+    points: &[usize],
+    lengths: &[f32],
+    targets: &mut Vec<Vec3>,
+    joints: &mut Vec<Vec3>,
+    rotations: &mut Vec<Quat>,
+) {
+    let n = chain.bones.len();
+    let m = points.len();
+    let bones = rig.bones();
+    // 1. Backward, unconstrained.
+    targets.clear();
+    targets.extend(points.iter().map(|&k| joints[k]));
+    targets[m - 1] = target;
+    for w in (1..m - 1).rev() {
+        let next = targets[w + 1];
+        let dir = (targets[w] - next).normalize_or_zero();
+        targets[w] = next + dir * lengths[w];
+    }
+    // 2. Forward, each bone about its own hinge.
+    let (mut parent_rotation, mut position) = base_frame;
+    let mut w = 0; // the distinct point at or before the current joint
+    for (k, &b) in chain.bones.iter().enumerate() {
+        position += parent_rotation * bones[b].offset;
+        if points.get(w + 1) == Some(&k) {
+            w += 1;
+        }
+        // The next distinct point this bone carries, and the vector to it in this bone's
+        // frame with the later bones at the same joint at their current angles.
+        let next_point = points.get(w + 1).copied().unwrap_or(n);
+        let mut carried = if next_point < n {
+            bones[chain.bones[next_point]].offset
+        } else {
+            chain.effector
+        };
+        for j in (k + 1..next_point.min(n)).rev() {
+            let bj = chain.bones[j];
+            carried = rig.local_rotation(bj, pose.angles[bj]) * carried;
+        }
+        let axis = parent_rotation * bones[b].axis;
+        let v0 = parent_rotation * carried;
+        let u = targets.get(w + 1).copied().unwrap_or(target) - position;
+        let (vp, up) = (v0 - axis * axis.dot(v0), u - axis * axis.dot(u));
+        if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
+            let angle = axis.dot(vp.cross(up)).atan2(vp.dot(up));
+            pose.angles[b] = clamp(rig, b, angle);
+        }
+        parent_rotation = (parent_rotation * rig.local_rotation(b, pose.angles[b])).normalize();
+    }
+    chain_fk(rig, chain, pose, base_frame, joints, rotations);
+    // 3. One sweep from the end bone back: each hinge turns the effector as close to the
+    //    target as it can.
+    for k in (0..n).rev() {
+        let b = chain.bones[k];
+        let parent_rotation = if k == 0 {
+            base_frame.0
+        } else {
+            rotations[k - 1]
+        };
+        let axis = parent_rotation * bones[b].axis;
+        let (v, u) = (joints[n] - joints[k], target - joints[k]);
+        let (vp, up) = (v - axis * axis.dot(v), u - axis * axis.dot(u));
+        if vp.length_squared() > 1e-12 && up.length_squared() > 1e-12 {
+            let turn = axis.dot(vp.cross(up)).atan2(vp.dot(up));
+            pose.angles[b] = clamp(rig, b, pose.angles[b] + turn);
+            chain_fk(rig, chain, pose, base_frame, joints, rotations);
+        }
+    }
+}
+
+/// Damped least squares (Levenberg-Marquardt) on the chain's angles from `pose`, at most
+/// `max_steps` steps or until the effector is within `tolerance`: with `J` the 3 x n Jacobian
+/// of the effector (column `k` is `a_k x (e - p_k)`, the hinge's world axis across the lever
+/// from its joint to the effector) and `r` the error to the target, each step tries
+/// `dtheta = J^T (J J^T + mu^2 I)^-1 r`, clamped to the limits; a step that does not reduce the
+/// error is undone and `mu` raised four times, one that does is kept and `mu` halved. Returns
+/// the steps taken and the error at the end; `pose` holds the best angles found, and `joints`
+/// and `rotations` their forward kinematics (`saved` is scratch).
+#[allow(clippy::too_many_arguments)]
+fn damped_least_squares(
+    rig: &Rig,
+    chain: &IkChain,
+    pose: &mut Pose,
+    target: Vec3,
+    base_frame: (Quat, Vec3),
+    tolerance: f32,
+    max_steps: u32,
+    joints: &mut Vec<Vec3>,
+    rotations: &mut Vec<Quat>,
+    saved: &mut Vec<f32>,
+) -> (u32, f32) {
+    let n = chain.bones.len();
+    let bones = rig.bones();
+    chain_fk(rig, chain, pose, base_frame, joints, rotations);
+    let mut error = joints[n].distance(target);
+    // The damping in metres: a tenth of the chain's reach to start with.
+    let reach: f32 = joints.windows(2).map(|w| w[0].distance(w[1])).sum();
+    let mut mu = 0.1 * reach.max(1e-3);
+    let mut steps = 0;
+    // The error two steps back: less than 5% gained over two steps is a stall.
+    let (mut back1, mut back2) = (f32::INFINITY, f32::INFINITY);
+    while steps < max_steps && error > tolerance {
+        if error > 0.95 * back2 {
+            break;
+        }
+        back2 = back1;
+        back1 = error;
+        steps += 1;
+        let effector = joints[n];
+        let r = target - effector;
+        let column = |k: usize| -> Vec3 {
+            let parent = if k == 0 {
+                base_frame.0
+            } else {
+                rotations[k - 1]
+            };
+            (parent * bones[chain.bones[k]].axis).cross(effector - joints[k])
+        };
+        // A hinge at a limit that the step would push past is held out of the step (its
+        // column left out), and the step taken again with the others: clamping it instead
+        // would lose that part of the step every time.
+        let at_limit = |k: usize, turn: f32| -> bool {
+            let b = chain.bones[k];
+            bones[b].limits.is_some_and(|(lo, hi)| {
+                let a = pose.angles[b];
+                (a <= lo + 1e-6 && turn < 0.0) || (a >= hi - 1e-6 && turn > 0.0)
+            })
+        };
+        let mut held = 0u64;
+        let mut y = Vec3::ZERO;
+        for _ in 0..2 {
+            // J J^T + mu^2 I over the hinges not held, as three columns.
+            let mut jjt = [Vec3::ZERO; 3];
+            for k in (0..n).filter(|&k| k >= 64 || held & (1 << k) == 0) {
+                let c = column(k);
+                jjt[0] += c * c.x;
+                jjt[1] += c * c.y;
+                jjt[2] += c * c.z;
+            }
+            let damped = bevy::math::Mat3::from_cols(
+                jjt[0] + Vec3::X * mu * mu,
+                jjt[1] + Vec3::Y * mu * mu,
+                jjt[2] + Vec3::Z * mu * mu,
+            );
+            y = damped.inverse() * r;
+            let newly: u64 = (0..n.min(64))
+                .filter(|&k| held & (1 << k) == 0 && at_limit(k, column(k).dot(y)))
+                .fold(0, |m, k| m | (1 << k));
+            if newly == 0 {
+                break;
+            }
+            held |= newly;
+        }
+        if !y.is_finite() {
+            break;
+        }
+        saved.clear();
+        saved.extend(chain.bones.iter().map(|&b| pose.angles[b]));
+        for k in (0..n).filter(|&k| k >= 64 || held & (1 << k) == 0) {
+            let b = chain.bones[k];
+            pose.angles[b] = clamp(rig, b, pose.angles[b] + column(k).dot(y));
+        }
+        chain_fk(rig, chain, pose, base_frame, joints, rotations);
+        let new_error = joints[n].distance(target);
+        if new_error < error {
+            error = new_error;
+            mu *= 0.5;
+        } else {
+            for (&b, &angle) in chain.bones.iter().zip(saved.iter()) {
+                pose.angles[b] = angle;
+            }
+            chain_fk(rig, chain, pose, base_frame, joints, rotations);
+            mu *= 4.0;
+        }
+    }
+    (steps, error)
 }
 
 /// Keeps a chain's IK continuous while it tracks a moving target, step after step: each solve
