@@ -608,3 +608,86 @@ fn the_core_refuses_bad_input_and_never_writes_a_non_finite_state() {
     }
     assert!(sim.is_finite());
 }
+
+/// The sag `a cosh(S / 2a) - a` of a catenary of length `length` hung between two points
+/// `span` apart at the same height, with `2 a sinh(S / 2a) = length` solved by bisection.
+fn catenary_sag(span: f32, length: f32) -> f32 {
+    let (mut lo, mut hi) = (1e-3f64, 1e3f64);
+    let (s, l) = (span as f64, length as f64);
+    for _ in 0..200 {
+        let a = 0.5 * (lo + hi);
+        if 2.0 * a * (s / (2.0 * a)).sinh() > l {
+            lo = a;
+        } else {
+            hi = a;
+        }
+    }
+    let a = 0.5 * (lo + hi);
+    (a * (s / (2.0 * a)).cosh() - a) as f32
+}
+
+#[test]
+fn a_rope_built_as_a_v_hangs_into_its_catenary_with_long_range_attachments_on() {
+    // 50 equal segments pinned at both ends 1 m apart, 1.2 m long, built with both arms
+    // straight (a V, its tip 0.33 m below the pins): the tethers to the pins are as long as
+    // the rope between (not the straight line across the V), so nothing holds the V.
+    for (segments, tip_side) in [(50u32, 0.5f32), (40, 0.3)] {
+        let (span, length) = (1.0f32, 1.2f32);
+        // The V's tip at `tip_side` of the span, both arms straight.
+        let tip_x = tip_side * span;
+        let depth = {
+            // Arms of lengths l1 + l2 = length from (0, 0) and (span, 0) to (tip_x, -depth).
+            let (mut lo, mut hi) = (0.0f32, length);
+            for _ in 0..100 {
+                let d = 0.5 * (lo + hi);
+                let total =
+                    (tip_x * tip_x + d * d).sqrt() + ((span - tip_x).powi(2) + d * d).sqrt();
+                if total > length { hi = d } else { lo = d }
+            }
+            0.5 * (lo + hi)
+        };
+        let tip = Vec3::new(tip_x, -depth, 0.0);
+        let first_arm = tip.length();
+        let n = segments as usize + 1;
+        // Particles at equal arc length along the V.
+        let positions: Vec<Vec3> = (0..n)
+            .map(|k| {
+                let s = length * k as f32 / segments as f32;
+                if s <= first_arm {
+                    tip * (s / first_arm)
+                } else {
+                    tip + (Vec3::new(span, 0.0, 0.0) - tip).normalize() * (s - first_arm)
+                }
+            })
+            .collect();
+        let edges: Vec<[u32; 2]> = (0..segments).map(|k| [k, k + 1]).collect();
+        let model = ClothModel::from_particles(&positions, &vec![0.01; n], &edges).unwrap();
+        let mut sim = ClothSolver::new(model);
+        sim.set_pins(&[0, segments]).unwrap();
+        let settings = SolverSettings {
+            damping: 2.0,
+            ..Default::default()
+        };
+        for _ in 0..600 {
+            sim.step(&settings, GRAVITY, DT).unwrap();
+        }
+        let lowest = sim
+            .state()
+            .positions
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::MAX, f32::min);
+        let expected = catenary_sag(span, length);
+        println!(
+            "{segments} segments, V tip at {tip_side}: sag {:.4} m, catenary {expected:.4} m, V {depth:.4} m",
+            -lowest
+        );
+        // Within 0.5% of the span of the catenary (the beads make it a discrete one), and
+        // the V's tip came up.
+        assert!(
+            (-lowest - expected).abs() < 0.005 * span,
+            "{} vs {expected}",
+            -lowest
+        );
+    }
+}

@@ -18,6 +18,7 @@ pub mod mesh;
 pub(crate) mod model;
 pub(crate) mod ordering;
 pub mod plugin;
+pub(crate) mod rest_paths;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod self_collision;
 pub(crate) mod settings;

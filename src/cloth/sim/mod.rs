@@ -11,6 +11,7 @@ use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::SpringSet;
 use super::model::{BendingPair, ClothModel, EdgeKind};
 use super::ordering::{apply_order, colour_order};
+use super::rest_paths::RestPaths;
 use super::self_collision::SelfCollision;
 use super::settings::{AdaptiveSubsteps, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
@@ -101,6 +102,8 @@ pub struct ClothSolver {
     anchors: Vec<u32>,
     /// Built the first time a step asks for a volume constraint (or its error).
     volume: Option<Result<VolumeConstraint, ClothError>>,
+    /// Distances along the cloth at rest, built the first time tethers are made.
+    rest_paths: Option<RestPaths>,
     /// Built the first time a step asks for self-collision.
     self_collision: Option<SelfCollision>,
     self_contacts: usize,
@@ -200,6 +203,7 @@ impl ClothSolver {
             contact_tethers: Vec::with_capacity(n),
             anchors: Vec::with_capacity(MAX_ANCHORS),
             volume: None,
+            rest_paths: None,
             self_collision: None,
             self_contacts: 0,
             adaptive_substeps: 0,
@@ -523,30 +527,49 @@ impl ClothSolver {
         }
     }
 
-    /// Tethers every free particle to its nearest pinned particles (at most
-    /// `TETHERS_PER_PARTICLE`), with the straight-line rest distance as the length. That
-    /// length is the geodesic one for a flat piece whose straight line to the pin stays on the
-    /// cloth (every grid); across a hole or a curved rest shape it is shorter than the
-    /// geodesic and holds the cloth tighter than its edges would.
+    /// Tethers every free particle to its nearest pinned particles along the cloth (at most
+    /// `TETHERS_PER_PARTICLE`), each as long as the distance along the cloth in its rest
+    /// shape (`cloth/rest_paths.rs`): the straight distance on a flat piece where the
+    /// straight line stays on the cloth, the shortest path over the edges elsewhere, so a
+    /// tether never holds the cloth tighter than its edges would.
     fn rebuild_tethers(&mut self) {
         self.tethers.clear();
         if self.pins.is_empty() && self.drag.is_none() {
             return;
         }
         let rest = &self.model.rest_positions;
-        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(self.pins.len() + 1);
+        let paths = self
+            .rest_paths
+            .get_or_insert_with(|| RestPaths::new(&self.model));
+        let anchors: Vec<u32> = self
+            .pins
+            .iter()
+            .chain(self.drag.as_ref())
+            .map(|pin| pin.particle)
+            .collect();
+        let mut along = Vec::new();
+        let mut lengths: Vec<Vec<f32>> = Vec::with_capacity(anchors.len());
+        for &anchor in &anchors {
+            paths.from(rest, anchor, &mut along);
+            lengths.push(along.clone());
+        }
+        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(anchors.len());
         for (i, &w) in self.state.inverse_masses.iter().enumerate() {
             if w == 0.0 {
                 continue;
             }
             nearest.clear();
             nearest.extend(
-                self.pins
+                anchors
                     .iter()
-                    .chain(self.drag.as_ref())
-                    .map(|pin| (rest[i].distance(rest[pin.particle as usize]), pin.particle)),
+                    .zip(&lengths)
+                    .map(|(&anchor, l)| (l[i], anchor))
+                    .filter(|(l, _)| l.is_finite()),
             );
             let k = TETHERS_PER_PARTICLE.min(nearest.len());
+            if k == 0 {
+                continue;
+            }
             if nearest.len() > k {
                 nearest.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
             }
