@@ -12,6 +12,7 @@ use bevy_drape::cloth::{VolumeSettings, weld};
 use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape};
 use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
+use drape_scenes::scenes::lowest_height;
 
 const DT: f32 = 1.0 / 60.0;
 const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
@@ -211,12 +212,7 @@ fn a_sphere_with_split_seams_simulates_as_one_piece() {
         }
     }
     // And it fell onto the ground in one piece.
-    let lowest = sim
-        .state()
-        .positions
-        .iter()
-        .map(|p| p.y)
-        .fold(f32::MAX, f32::min);
+    let lowest = lowest_height(sim);
     assert!(lowest < 0.02, "{lowest}");
     let centroid: Vec3A = sim.state().positions.iter().copied().sum::<Vec3A>() / particles as f32;
     assert!(centroid.y > 0.2 && centroid.y < 0.4, "{centroid}");

@@ -8,7 +8,7 @@ use bevy_drape::cloth::{
     ClothModel, ClothSolver, DampingMode, EdgeKind, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::error::{ClothError, ClothWarning};
-use drape_scenes::scenes::{GRAVITY, HangingCloth};
+use drape_scenes::scenes::{GRAVITY, HangingCloth, lowest_height};
 use drape_scenes::study::sag;
 
 const DT: f32 = 1.0 / 60.0;
@@ -671,12 +671,7 @@ fn a_rope_built_as_a_v_hangs_into_its_catenary_with_long_range_attachments_on() 
         for _ in 0..600 {
             sim.step(&settings, GRAVITY, DT).unwrap();
         }
-        let lowest = sim
-            .state()
-            .positions
-            .iter()
-            .map(|p| p.y)
-            .fold(f32::MAX, f32::min);
+        let lowest = lowest_height(&sim);
         let expected = catenary_sag(span, length);
         println!(
             "{segments} segments, V tip at {tip_side}: sag {:.4} m, catenary {expected:.4} m, V {depth:.4} m",

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverMethod, SolverSettings};
 use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape, TriMesh};
-use drape_scenes::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY};
+use drape_scenes::scenes::{DENSITY, Drape, FRAME_RATE, GRAVITY, lowest_height};
 
 const DT: f32 = 1.0 / FRAME_RATE;
 
@@ -217,12 +217,7 @@ fn in_s2_no_particle_goes_deeper_than_the_margin() {
     let run = Drape { n: 64 }.run(&SolverSettings::default(), 180);
     let sim = &run.sim;
     let centre = Drape { n: 64 }.sphere_centre();
-    let lowest = sim
-        .state()
-        .positions
-        .iter()
-        .map(|p| p.y)
-        .fold(f32::MAX, f32::min);
+    let lowest = lowest_height(sim);
     println!(
         "S2 N = 64: deepest {:.2e} m, max strain {:.2}%, lowest particle {lowest:.3} m",
         run.deepest_penetration,

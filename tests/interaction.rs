@@ -6,7 +6,7 @@ use bevy_drape::cloth::{
     ClothModel, ClothSolver, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
 };
 use bevy_drape::interact::pick::pick_particle;
-use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
+use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth, lowest_height};
 
 const DT: f32 = 1.0 / FRAME_RATE;
 
@@ -79,12 +79,7 @@ fn a_dragged_particle_reaches_its_goal_and_the_cloth_stays_bounded_when_yanked()
         );
         assert!(worst_strain < 0.5 && settled < 0.1);
         // The sheet hangs from the grabbed particle (or, lifted 0.3 m, lies around it).
-        let lowest = sim
-            .state()
-            .positions
-            .iter()
-            .map(|p| p.y)
-            .fold(f32::MAX, f32::min);
+        let lowest = lowest_height(&sim);
         assert!(lowest > goal.y - 0.8, "{lowest}");
         sim.release();
         assert_eq!(sim.grabbed(), None);

@@ -7,7 +7,7 @@ use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
     ClothModel, ClothSolver, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
 };
-use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth};
+use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth, lowest_height};
 
 const MASS: f32 = 0.5;
 const K: f32 = 100.0;
@@ -307,12 +307,7 @@ fn mass_spring_and_hybrid_cloths_rest_on_the_ground_without_sinking() {
         for _ in 0..120 {
             sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE).unwrap();
         }
-        let lowest = sim
-            .state()
-            .positions
-            .iter()
-            .map(|p| p.y)
-            .fold(f32::MAX, f32::min);
+        let lowest = lowest_height(&sim);
         let fastest = sim
             .state()
             .velocities

@@ -692,3 +692,12 @@ pub fn median(values: &[f64]) -> f64 {
         0.5 * (v[mid - 1] + v[mid])
     }
 }
+
+/// The height of the cloth's lowest particle, m.
+pub fn lowest_height(sim: &ClothSolver) -> f32 {
+    sim.state()
+        .positions
+        .iter()
+        .map(|p| p.y)
+        .fold(f32::MAX, f32::min)
+}
