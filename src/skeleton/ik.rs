@@ -152,6 +152,7 @@ pub struct IkScratch {
     rotations: Vec<Quat>,
     path: Vec<usize>,
     saved: Vec<f32>,
+    held: Vec<bool>,
 }
 
 /// A bone's hinge angle clamped to its limits.
@@ -227,6 +228,7 @@ pub fn solve(
         rotations,
         path,
         saved,
+        held,
     } = scratch;
     let base_frame = base(rig, chain, pose, path);
     chain_fk(rig, chain, pose, base_frame, joints, rotations);
@@ -300,7 +302,7 @@ pub fn solve(
             settings.max_iterations - iterations,
             joints,
             rotations,
-            saved,
+            (saved, held),
         );
         iterations += steps.max(1);
         keep(best, &mut best_error, pose, error);
@@ -415,7 +417,7 @@ fn fabrik_pass(
 /// `dtheta = J^T (J J^T + mu^2 I)^-1 r`, clamped to the limits; a step that does not reduce the
 /// error is undone and `mu` raised four times, one that does is kept and `mu` halved. Returns
 /// the steps taken and the error at the end; `pose` holds the best angles found, and `joints`
-/// and `rotations` their forward kinematics (`saved` is scratch).
+/// and `rotations` their forward kinematics (`saved` and `held` are scratch).
 #[allow(clippy::too_many_arguments)]
 fn damped_least_squares(
     rig: &Rig,
@@ -427,7 +429,7 @@ fn damped_least_squares(
     max_steps: u32,
     joints: &mut Vec<Vec3>,
     rotations: &mut Vec<Quat>,
-    saved: &mut Vec<f32>,
+    (saved, held): (&mut Vec<f32>, &mut Vec<bool>),
 ) -> (u32, f32) {
     let n = chain.bones.len();
     let bones = rig.bones();
@@ -466,12 +468,13 @@ fn damped_least_squares(
                 (a <= lo + 1e-6 && turn < 0.0) || (a >= hi - 1e-6 && turn > 0.0)
             })
         };
-        let mut held = 0u64;
+        held.clear();
+        held.resize(n, false);
         let mut y = Vec3::ZERO;
         for _ in 0..2 {
             // J J^T + mu^2 I over the hinges not held, as three columns.
             let mut jjt = [Vec3::ZERO; 3];
-            for k in (0..n).filter(|&k| k >= 64 || held & (1 << k) == 0) {
+            for k in (0..n).filter(|&k| !held[k]) {
                 let c = column(k);
                 jjt[0] += c * c.x;
                 jjt[1] += c * c.y;
@@ -483,20 +486,23 @@ fn damped_least_squares(
                 jjt[2] + Vec3::Z * mu * mu,
             );
             y = damped.inverse() * r;
-            let newly: u64 = (0..n.min(64))
-                .filter(|&k| held & (1 << k) == 0 && at_limit(k, column(k).dot(y)))
-                .fold(0, |m, k| m | (1 << k));
-            if newly == 0 {
+            let mut newly = false;
+            for (k, held) in held.iter_mut().enumerate() {
+                if !*held && at_limit(k, column(k).dot(y)) {
+                    *held = true;
+                    newly = true;
+                }
+            }
+            if !newly {
                 break;
             }
-            held |= newly;
         }
         if !y.is_finite() {
             break;
         }
         saved.clear();
         saved.extend(chain.bones.iter().map(|&b| pose.angles[b]));
-        for k in (0..n).filter(|&k| k >= 64 || held & (1 << k) == 0) {
+        for k in (0..n).filter(|&k| !held[k]) {
             let b = chain.bones[k];
             pose.angles[b] = clamp(rig, b, pose.angles[b] + column(k).dot(y));
         }
