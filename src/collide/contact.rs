@@ -80,6 +80,8 @@ impl Contact {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ContactScratch {
     contacts: Vec<Contact>,
+    /// The colliders' poses at the start and the end of the current substep.
+    start_poses: Vec<RigidPose>,
     poses: Vec<RigidPose>,
     bounds: Vec<Option<Aabb>>,
 }
@@ -106,24 +108,42 @@ impl ContactScratch {
         );
         self.poses.clear();
         self.poses.extend(colliders.iter().map(|c| c.end));
+        self.start_poses.clear();
+        self.start_poses.extend(colliders.iter().map(|c| c.start));
     }
 
-    /// Prepares a substep ending a fraction `t` through the step: poses at `t`, no contacts.
-    pub(crate) fn begin_substep(&mut self, colliders: &[SolverCollider], t: f32) {
-        for (pose, c) in self.poses.iter_mut().zip(colliders) {
-            *pose = c.pose_at(t);
+    /// Prepares a substep from a fraction `t_start` to `t_end` of the step: poses at both,
+    /// no contacts.
+    pub(crate) fn begin_substep(&mut self, colliders: &[SolverCollider], t_start: f32, t_end: f32) {
+        for ((start, end), c) in self
+            .start_poses
+            .iter_mut()
+            .zip(self.poses.iter_mut())
+            .zip(colliders)
+        {
+            *start = c.pose_at(t_start);
+            *end = c.pose_at(t_end);
         }
         self.contacts.fill(Contact::EMPTY);
+    }
+
+    /// The colliders' poses at the start and the end of the current substep.
+    pub(crate) fn substep_poses(&self) -> (&[RigidPose], &[RigidPose]) {
+        (&self.start_poses, &self.poses)
     }
 
     /// Moves every free particle out of every collider (step 1 of the [module docs](self)).
     /// `v` are the velocities the approach speed is measured from, `h_a` the external
     /// acceleration's velocity change over the substep still to come (zero if `v` has it).
+    /// `x_prev` are the positions at the start of the substep: a particle whose move since
+    /// then, relative to a triangle mesh, crossed one of its triangles is put back on the
+    /// side it came from ([`SolverShape::swept_signed_distance`](super::SolverShape)).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn project(
         &mut self,
         colliders: &[SolverCollider],
         x: &mut [Vec3A],
+        x_prev: &[Vec3A],
         v: &[Vec3A],
         w: &[f32],
         h_a: Vec3A,
@@ -131,14 +151,22 @@ impl ContactScratch {
     ) {
         for (k, collider) in colliders.iter().enumerate() {
             let pose = self.poses[k];
+            let start_pose = self.start_poses[k];
             let bounds = self.bounds[k];
             let reach = collider.margin + thickness;
+            let swept = matches!(collider.shape, super::SolverShape::TriangleMesh(_));
             for i in 0..x.len() {
                 if w[i] <= 0.0 || bounds.is_some_and(|b| !b.contains(x[i])) {
                     continue;
                 }
                 let local = pose.inverse_transform_point(x[i]);
-                let Some((d, n_local)) = collider.shape.signed_distance(local, reach) else {
+                let found = if swept {
+                    let from = start_pose.inverse_transform_point(x_prev[i]);
+                    collider.shape.swept_signed_distance(from, local, reach)
+                } else {
+                    collider.shape.signed_distance(local, reach)
+                };
+                let Some((d, n_local)) = found else {
                     continue;
                 };
                 if d >= reach {

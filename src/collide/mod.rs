@@ -1,12 +1,14 @@
 //! Colliders: shapes (sphere, capsule, plane, triangle mesh with a bounding-volume
-//! hierarchy), their motion over a fixed step, and particle contacts with restitution and
-//! Coulomb friction on the velocity relative to the collider (`contact.rs`); the Bevy
-//! components in [`plugin`].
+//! hierarchy and pseudo-normals), their motion over a fixed step, particle contacts with
+//! restitution and Coulomb friction on the velocity relative to the collider (`contact.rs`),
+//! the cloth's triangles against a mesh's thin features (`thin.rs`); the Bevy components in
+//! [`plugin`].
 
 pub(crate) mod contact;
 pub mod motion;
 pub mod plugin;
 pub(crate) mod shapes;
+pub(crate) mod thin;
 pub(crate) mod trimesh;
 
 pub use motion::{FrameStep, FrameTracker, Teleport};

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use bevy::math::{Quat, Vec3A};
 
-use super::trimesh::{Aabb, TriMesh};
+use super::trimesh::{Aabb, ClosestPoint, TriMesh};
 use crate::error::ColliderError;
 
 /// A rigid pose: rotation, then translation.
@@ -83,7 +83,9 @@ pub enum SolverShape {
     },
     /// The half-space `y <= 0`; the surface is the local XZ plane, the normal local +Y.
     Plane,
-    /// A triangle mesh, one-sided: the front of each triangle (counter-clockwise) is outside.
+    /// A triangle mesh. Closed (watertight), it has an inside: the back of its triangles
+    /// (counter-clockwise is the front). Open (a scan with holes, a sheet), it has none: the
+    /// cloth is kept on whichever side of it it came from. See [`TriMesh`].
     TriangleMesh(Arc<TriMesh>),
 }
 
@@ -119,8 +121,9 @@ impl SolverShape {
 
     /// The signed distance of the local point `p` to the surface (negative inside) and the
     /// unit outward normal at the closest surface point, if `p` is within `reach` of the
-    /// surface or inside. A triangle mesh counts a point as inside when it is behind the
-    /// closest triangle, up to `reach` deep.
+    /// surface or inside. A closed triangle mesh counts a point as inside when it is behind
+    /// the pseudo-normal of the closest feature, up to `reach` deep; an open one never does
+    /// (the distance is then unsigned and the normal points from the surface to `p`).
     #[inline]
     pub fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<(f32, Vec3A)> {
         match self {
@@ -134,22 +137,38 @@ impl SolverShape {
             }
             SolverShape::Plane => (p.y < reach).then_some((p.y, Vec3A::Y)),
             SolverShape::TriangleMesh(mesh) => {
-                let closest = mesh.closest_point(p, reach)?;
-                let side = (p - closest.point).dot(closest.normal);
-                if side >= 0.0 {
-                    // In front: outside, the normal points from the surface to the point
-                    // (the face normal where the point is on the surface).
-                    let n = if closest.distance > 1e-7 {
-                        (p - closest.point) / closest.distance
-                    } else {
-                        closest.normal
-                    };
-                    Some((closest.distance, n))
-                } else {
-                    Some((-closest.distance, closest.normal))
-                }
+                Some(mesh_distance(mesh, p, &mesh.closest_point(p, reach)?))
             }
         }
+    }
+
+    /// As [`SolverShape::signed_distance`] for a point that moved from `from` to `p` (both
+    /// local): where the move crossed a triangle of a mesh (entering a closed mesh, or either
+    /// way through an open one), the distance of `p` to that triangle's plane, negative, with
+    /// the normal turned to the side it came from, so that the point is put back there, what
+    /// the closest triangle says. Other shapes ignore `from`.
+    #[inline]
+    pub(crate) fn swept_signed_distance(
+        &self,
+        from: Vec3A,
+        p: Vec3A,
+        reach: f32,
+    ) -> Option<(f32, Vec3A)> {
+        let SolverShape::TriangleMesh(mesh) = self else {
+            return self.signed_distance(p, reach);
+        };
+        // Every point of the move is within `motion` of `p`: a surface farther away than that
+        // cannot have been crossed, and the crossing test is left out (a resting particle).
+        let motion = p.distance(from);
+        let closest = mesh.closest_point(p, reach.max(motion))?;
+        if closest.distance <= motion
+            && let Some(crossing) = mesh.first_crossing(from, p, mesh.is_closed())
+        {
+            let d = (p - crossing.plane_point).dot(crossing.normal);
+            return Some((d.min(0.0), crossing.normal));
+        }
+        let (d, n) = mesh_distance(mesh, p, &closest);
+        (d < reach).then_some((d, n))
     }
 
     /// The local bounds, `None` for the (infinite) plane.
@@ -170,6 +189,27 @@ impl SolverShape {
             SolverShape::TriangleMesh(mesh) => Some(mesh.bounds()),
         }
     }
+}
+
+/// The signed distance and outward normal of `p` from its closest point on `mesh` (see
+/// [`SolverShape::signed_distance`]).
+#[inline]
+fn mesh_distance(mesh: &TriMesh, p: Vec3A, closest: &ClosestPoint) -> (f32, Vec3A) {
+    let offset = p - closest.point;
+    let inside = mesh.is_closed() && offset.dot(closest.normal) < 0.0;
+    let n = if closest.distance <= 1e-7 {
+        closest.normal
+    } else if inside {
+        -offset / closest.distance
+    } else {
+        offset / closest.distance
+    };
+    let d = if inside {
+        -closest.distance
+    } else {
+        closest.distance
+    };
+    (d, n)
 }
 
 #[inline(always)]

@@ -6,9 +6,12 @@
 //! - [`scenes`]: S1 (the hanging cloth), S2 (the drape over a sphere) and the sheet drop, on
 //!   the pure cores, without an App.
 //! - [`study`]: the measurements behind the `speed_accuracy` charts.
+//! - [`scan`]: random scan-like meshes (thin ears, open bottoms, dented rocks) for the mesh
+//!   collider tests and benches.
 //! - [`poncho`]: S3, the poncho on the walking character, as a plugin ([`poncho::PonchoScenePlugin`])
 //!   and as a headless run with its figures ([`poncho::run_headless`]).
 
 pub mod poncho;
+pub mod scan;
 pub mod scenes;
 pub mod study;

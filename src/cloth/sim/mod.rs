@@ -18,6 +18,7 @@ use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
 use crate::collide::contact::{Contact, ContactScratch};
+use crate::collide::thin::ThinFeatureContacts;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::{ClothError, ColliderError};
 
@@ -95,6 +96,7 @@ pub struct ClothSolver {
     last_substeps: u32,
     colliders: Vec<SolverCollider>,
     contacts: ContactScratch,
+    thin_contacts: ThinFeatureContacts,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
     /// Tethers from free particles to the particles colliders held in the last step.
@@ -197,6 +199,7 @@ impl ClothSolver {
             last_substeps: 0,
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
+            thin_contacts: ThinFeatureContacts::default(),
             drag: None,
             // At most one tether per particle and `MAX_ANCHORS` anchors: made here, so that
             // the first contacts do not allocate inside a step.

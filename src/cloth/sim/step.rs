@@ -161,6 +161,16 @@ impl ClothSolver {
             .filter(|_| settings.self_collision);
         self.contacts
             .begin_step(colliders, x.len(), settings.thickness);
+        self.thin_contacts.begin_step(
+            colliders,
+            &self.model.triangles,
+            x,
+            v,
+            a,
+            dt,
+            settings.thickness,
+        );
+        let thin_contacts = self.thin_contacts.has_candidates();
 
         for s in 0..substeps {
             // 1. Predict (the air's share first, as a kick: it is constant over the step).
@@ -224,7 +234,9 @@ impl ClothSolver {
 
             // 2. Project.
             if !colliders.is_empty() {
-                self.contacts.begin_substep(colliders, t_end);
+                self.contacts
+                    .begin_substep(colliders, s as f32 / substeps as f32, t_end);
+                self.thin_contacts.begin_substep();
             }
             let mut volume = match (settings.volume, self.volume.as_mut()) {
                 (Some(v), Some(Ok(constraint))) if !mass_spring => {
@@ -308,8 +320,26 @@ impl ClothSolver {
                     }
                 }
                 if !colliders.is_empty() {
-                    self.contacts
-                        .project(colliders, x, v, w, contact_push, settings.thickness);
+                    self.contacts.project(
+                        colliders,
+                        x,
+                        x_prev,
+                        v,
+                        w,
+                        contact_push,
+                        settings.thickness,
+                    );
+                    if thin_contacts {
+                        self.thin_contacts.project(
+                            colliders,
+                            &self.contacts,
+                            &self.model.triangles,
+                            x,
+                            x_prev,
+                            w,
+                            settings.thickness,
+                        );
+                    }
                 }
             }
 
