@@ -26,7 +26,6 @@ use skeleton::plugin::SkeletonPlugin;
 /// Everything most users import.
 pub mod prelude {
     pub use crate::DrapePlugins;
-    pub use crate::cloth::DebugColorMode;
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
@@ -37,6 +36,7 @@ pub mod prelude {
         AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,
         Gusts, SolverMethod, SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
     };
+    pub use crate::cloth::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{
         AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,

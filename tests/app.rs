@@ -763,6 +763,109 @@ fn debug_colours_are_written_into_the_mesh_and_white_when_off() {
 }
 
 #[test]
+fn per_triangle_paint_draws_flat_colours_and_off_brings_the_shared_mesh_back() {
+    let mut app = app();
+    let grid = GridDesc::square(1.0, 5, Vec3::ZERO);
+    let cloth = spawn_cloth(
+        &mut app,
+        &grid,
+        Cloth::pinned([0, 4]),
+        Transform::from_xyz(0.0, 1.0, 0.0),
+    );
+    let mesh = |app: &App| {
+        let handle = &app.world().get::<Mesh3d>(cloth).unwrap().0;
+        app.world()
+            .resource::<Assets<Mesh>>()
+            .get(handle)
+            .unwrap()
+            .clone()
+    };
+    let attribute3 = |m: &Mesh, a| match m.attribute(a) {
+        Some(VertexAttributeValues::Float32x3(v)) => v.clone(),
+        _ => panic!("no attribute"),
+    };
+    let colours = |m: &Mesh| match m.attribute(Mesh::ATTRIBUTE_COLOR) {
+        Some(VertexAttributeValues::Float32x4(c)) => c.clone(),
+        _ => panic!("no colours"),
+    };
+    for _ in 0..3 {
+        app.update();
+    }
+    let shared = mesh(&app);
+    assert_eq!(shared.count_vertices(), 25);
+    let triangles = 32;
+    // A colour of its own for every triangle, from a value nobody designed for it.
+    let paint: Vec<[f32; 4]> = (0..triangles)
+        .map(|t| {
+            let u = ((t * 7919) % 97) as f32 / 97.0;
+            [u, 1.0 - u, 0.5 * u, 1.0]
+        })
+        .collect();
+    app.world_mut()
+        .entity_mut(cloth)
+        .insert(ClothPaint::triangle_colors(paint.clone()));
+    app.insert_resource(ClothDebugColors(DebugColorMode::Custom));
+    for _ in 0..3 {
+        app.update();
+    }
+    let flat = mesh(&app);
+    assert_eq!(flat.count_vertices(), 3 * triangles);
+    let c = colours(&flat);
+    for (corner, colour) in c.iter().enumerate() {
+        assert_eq!(*colour, paint[corner / 3], "corner {corner}");
+    }
+    // Every corner is drawn where its particle is: the flat mesh's positions are the shared
+    // mesh's vertices, gathered by the indices, as the cloth moves on.
+    let positions = attribute3(&flat, Mesh::ATTRIBUTE_POSITION);
+    let solver = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
+    let model = solver.model();
+    for (t, tri) in model.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let particle = solver.state().positions[tri[k] as usize];
+            let drawn = Vec3::from(positions[3 * t + k]) + Vec3::Y;
+            assert!(
+                drawn.distance(particle.into()) < 0.05,
+                "{drawn} vs {particle}"
+            );
+        }
+    }
+    // Per particle: one colour per vertex, the shared mesh again.
+    let values: Vec<f32> = (0..25).map(|i| i as f32).collect();
+    app.world_mut().entity_mut(cloth).insert(ClothPaint::values(
+        PaintTarget::Particles,
+        values,
+        0.0,
+        24.0,
+    ));
+    app.update();
+    let shared_again = mesh(&app);
+    assert_eq!(shared_again.count_vertices(), 25);
+    assert_eq!(shared_again.indices(), shared.indices());
+    let c = colours(&shared_again);
+    assert_ne!(c[0], c[24]);
+    // A list of the wrong length: grey, a warning, the app keeps running.
+    app.world_mut()
+        .entity_mut(cloth)
+        .insert(ClothPaint::triangle_colors(vec![[1.0; 4]; 3]));
+    app.update();
+    assert_eq!(mesh(&app).count_vertices(), 3 * triangles);
+    assert!(
+        colours(&mesh(&app))
+            .iter()
+            .all(|c| c.iter().all(|v| v.is_finite()))
+    );
+    // Area strain is per triangle too; off gives the shared mesh and white back.
+    app.insert_resource(ClothDebugColors(DebugColorMode::AreaStrain));
+    app.update();
+    assert_eq!(mesh(&app).count_vertices(), 3 * triangles);
+    app.insert_resource(ClothDebugColors(DebugColorMode::Off));
+    app.update();
+    let off = mesh(&app);
+    assert_eq!(off.count_vertices(), 25);
+    assert_eq!(colours(&off), vec![[1.0f32; 4]; 25]);
+}
+
+#[test]
 fn settings_and_components_are_reflected_so_an_inspector_can_edit_them() {
     use bevy::ecs::reflect::{ReflectComponent, ReflectResource};
     use bevy::reflect::GetPath;
@@ -787,6 +890,7 @@ fn settings_and_components_are_reflected_so_an_inspector_can_edit_them() {
         ("DrapeSettings", false),
         ("DefaultClothSettings", false),
         ("DrapeTimings", false),
+        ("ClothPaint", true),
     ] {
         let registration = registry
             .get_with_short_type_path(name)

@@ -2,9 +2,14 @@
 //! cycle debug colours, and a "run N frames, save a screenshot, exit" switch for smoke tests
 //! and pictures.
 //!
+//! In the `Custom` debug colours every cloth shows a value computed by `paint_folds` here, the
+//! way a game paints any value of its own: how far each triangle turns from the horizontal.
+//!
 //! Environment variables:
 //! - `DRAPE_FRAMES=N`: after N rendered frames, save a screenshot and exit;
-//! - `DRAPE_SCREENSHOT=path.png`: where to save it (default `screenshot.png`).
+//! - `DRAPE_SCREENSHOT=path.png`: where to save it (default `screenshot.png`);
+//! - `DRAPE_DEBUG_COLORS=mode`: start with these debug colours (`Strain`, `AreaStrain`,
+//!   `Custom`, ...).
 
 #[allow(dead_code)]
 pub(crate) mod offscreen;
@@ -13,6 +18,9 @@ use bevy::app::AppExit;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
+use bevy_drape::prelude::{
+    ClothDebugColors, ClothPaint, ClothSimulation, DebugColorMode, PaintTarget,
+};
 
 /// Adds the orbit camera controls and the screenshot-and-exit switch.
 pub(crate) struct ExamplePlugin;
@@ -32,7 +40,17 @@ impl Plugin for ExamplePlugin {
             bevy_drape::interact::drag::ClothDragPlugin,
             bevy_drape::interact::gizmos::ColliderGizmoPlugin,
         ))
-        .add_systems(Update, (orbit_camera, smoke_run, cycle_debug_colors));
+        .add_systems(
+            Update,
+            (orbit_camera, smoke_run, cycle_debug_colors, paint_folds),
+        );
+        if let Ok(name) = std::env::var("DRAPE_DEBUG_COLORS") {
+            let mut mode = DebugColorMode::Off.next();
+            while format!("{mode:?}") != name && mode != DebugColorMode::Off {
+                mode = mode.next();
+            }
+            app.insert_resource(ClothDebugColors(mode));
+        }
         // The settings panel, with `--features egui`.
         #[cfg(feature = "egui")]
         app.add_plugins(bevy_drape::interact::panel::DrapePanelPlugin);
@@ -85,14 +103,44 @@ fn orbit_camera(
     }
 }
 
-/// C cycles the cloths' debug colours: off, strain, speed, contact, pinned.
-fn cycle_debug_colors(
-    input: Res<ButtonInput<KeyCode>>,
-    mut colors: ResMut<bevy_drape::prelude::ClothDebugColors>,
-) {
+/// C cycles the cloths' debug colours: off, strain, speed, contact, pinned, area strain,
+/// custom.
+fn cycle_debug_colors(input: Res<ButtonInput<KeyCode>>, mut colors: ResMut<ClothDebugColors>) {
     if input.just_pressed(KeyCode::KeyC) {
         colors.0 = colors.0.next();
         info!("debug colours: {:?}", colors.0);
+    }
+}
+
+/// The custom debug colours: per triangle, `1 - |n . up|` on the ramp, blue where the cloth
+/// lies flat, red where it hangs straight down (its folds and its sides).
+fn paint_folds(
+    mut commands: Commands,
+    debug: Res<ClothDebugColors>,
+    mut cloths: Query<(Entity, &ClothSimulation, Option<&mut ClothPaint>)>,
+) {
+    if debug.0 != DebugColorMode::Custom {
+        return;
+    }
+    for (entity, simulation, paint) in &mut cloths {
+        let solver = simulation.solver();
+        let x = &solver.state().positions;
+        let values = solver
+            .model()
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| x[i as usize]);
+                1.0 - (b - a).cross(c - a).normalize_or_zero().y.abs()
+            })
+            .collect();
+        let painted = ClothPaint::values(PaintTarget::Triangles, values, 0.0, 1.0);
+        match paint {
+            Some(mut paint) => *paint = painted,
+            None => {
+                commands.entity(entity).insert(painted);
+            }
+        }
     }
 }
 

@@ -9,6 +9,7 @@ pub(crate) mod batch;
 pub(crate) mod constraints;
 pub(crate) mod damping;
 pub(crate) mod debug_colors;
+pub(crate) mod flat_layout;
 pub(crate) mod garment;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod isometric_bending;
@@ -32,7 +33,7 @@ pub mod wind_plugin;
 
 pub use air::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
 pub use damping::RigidMotion;
-pub use debug_colors::DebugColorMode;
+pub use debug_colors::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
 pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};

@@ -11,7 +11,8 @@ use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
-use super::debug_colors::{DebugColorMode, debug_colors};
+use super::debug_colors::{ClothPaint, DebugColorMode, PaintTarget, debug_colors};
+use super::flat_layout::FlatLayout;
 use super::mesh::compute_normals;
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
@@ -184,7 +185,10 @@ impl ClothSettings {
 pub struct DefaultClothSettings(pub ClothSettings);
 
 /// The debug colours every cloth's mesh shows (vertex colours, multiplied with its
-/// material's colour; off shows the mesh's own vertex colours, or white). Default: off.
+/// material's colour; off shows the mesh's own vertex colours, or white). Default: off. While
+/// a per-triangle mode is on ([`DebugColorMode::AreaStrain`], a [`ClothPaint`] per triangle)
+/// the mesh is drawn with one vertex per triangle corner, so each triangle has one flat
+/// colour; the shared mesh comes back when the mode goes off.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
 #[reflect(Resource)]
 pub struct ClothDebugColors(pub DebugColorMode);
@@ -235,6 +239,10 @@ pub struct ClothSimulation {
     local_positions: Vec<[f32; 3]>,
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
+    /// Whether the mesh is drawn with a vertex per triangle corner (per-triangle colours).
+    flat: FlatLayout,
+    /// Whether a [`ClothPaint`] of the wrong length was reported (until it fits again).
+    warned_paint: bool,
     /// The colliders this cloth meets in a step (the world's and its own planes).
     colliders: Vec<SolverCollider>,
     warned_invalid_settings: bool,
@@ -321,17 +329,23 @@ pub struct ClothPlugin;
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
         let schedule = DrapeSchedule::of(app);
-        app.register_type::<(Cloth, ClothSettings, DefaultClothSettings, ClothDebugColors)>()
-            .init_resource::<DefaultClothSettings>()
-            .init_resource::<DrapeSettings>()
-            .init_resource::<ClothDebugColors>()
-            .add_message::<ClothDiverged>()
-            .add_systems(schedule, build_cloths.in_set(DrapeSystems::Prepare))
-            .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
-            .add_systems(
-                PostUpdate,
-                write_back_meshes.in_set(DrapeSystems::Writeback),
-            );
+        app.register_type::<(
+            Cloth,
+            ClothSettings,
+            DefaultClothSettings,
+            ClothDebugColors,
+            ClothPaint,
+        )>()
+        .init_resource::<DefaultClothSettings>()
+        .init_resource::<DrapeSettings>()
+        .init_resource::<ClothDebugColors>()
+        .add_message::<ClothDiverged>()
+        .add_systems(schedule, build_cloths.in_set(DrapeSystems::Prepare))
+        .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
+        .add_systems(
+            PostUpdate,
+            write_back_meshes.in_set(DrapeSystems::Writeback),
+        );
     }
 }
 
@@ -388,6 +402,8 @@ fn build_simulation(
             vertex_colors: Vec::new(),
             local_positions: Vec::new(),
             base_colors: Vec::new(),
+            flat: FlatLayout::default(),
+            warned_paint: false,
             colliders: Vec::new(),
             warned_invalid_settings: false,
             warned_step_input: false,
@@ -647,19 +663,53 @@ fn step_cloths(
 /// Writes every cloth into its mesh, interpolated between the last two fixed steps: in the
 /// world, or, for a cloth that follows an entity, in that entity's frame (so the cloth is
 /// drawn on the entity wherever the entity is drawn, interpolated or not).
+#[allow(clippy::type_complexity)]
 fn write_back_meshes(
-    mut cloths: Query<(&mut ClothSimulation, &Cloth, &Mesh3d, &GlobalTransform)>,
+    mut cloths: Query<(
+        Entity,
+        &mut ClothSimulation,
+        &Cloth,
+        &Mesh3d,
+        &GlobalTransform,
+        Option<&ClothPaint>,
+    )>,
     followed: Query<&GlobalTransform>,
     mut meshes: ResMut<Assets<Mesh>>,
     fixed: Res<Time<Fixed>>,
     debug: Res<ClothDebugColors>,
 ) {
     let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
-    for (mut simulation, cloth, mesh3d, global) in &mut cloths {
+    for (entity, mut simulation, cloth, mesh3d, global, paint) in &mut cloths {
         let simulation = &mut *simulation;
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
             continue;
         };
+        // Debug colours first: per-triangle colours draw the mesh with a vertex per corner.
+        let (target, mismatch) =
+            debug_colors(&simulation.sim, debug.0, paint, &mut simulation.colors);
+        match mismatch {
+            Some(m) if !simulation.warned_paint => {
+                warn!(
+                    "cloth {entity}: its ClothPaint has {} entries for {} {} (shown grey)",
+                    m.found,
+                    m.expected,
+                    match m.target {
+                        PaintTarget::Particles => "particles",
+                        PaintTarget::Triangles => "triangles",
+                    }
+                );
+                simulation.warned_paint = true;
+            }
+            Some(_) => {}
+            None => simulation.warned_paint = false,
+        }
+        let per_triangle = !simulation.colors.is_empty() && target == PaintTarget::Triangles;
+        simulation.flat.set(
+            &mut mesh,
+            per_triangle,
+            &simulation.vertex_to_particle,
+            &simulation.sim.model().triangles,
+        );
         let to_local = global.affine().inverse();
         // The followed entity's poses at the last two fixed steps and as drawn now.
         let frame = simulation.followed.zip(
@@ -669,7 +719,10 @@ fn write_back_meshes(
                 .and_then(world_pose),
         );
         let current = &simulation.sim.state().positions;
-        let map = &simulation.vertex_to_particle;
+        let map = simulation
+            .flat
+            .corner_to_particle()
+            .unwrap_or(&simulation.vertex_to_particle);
         let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
             mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
         else {
@@ -728,14 +781,26 @@ fn write_back_meshes(
                 mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
             }
         }
-        debug_colors(&simulation.sim, debug.0, &mut simulation.colors);
         let colors = if simulation.colors.is_empty() {
             &simulation.base_colors
         } else {
             simulation.vertex_colors.clear();
-            simulation
-                .vertex_colors
-                .extend(map.iter().map(|&p| simulation.colors[p as usize]));
+            if per_triangle {
+                let flat = &simulation.flat;
+                let colors = &simulation.colors;
+                simulation
+                    .vertex_colors
+                    .extend((0..map.len()).map(|corner| {
+                        flat.model_triangle(corner)
+                            .and_then(|t| colors.get(t))
+                            .copied()
+                            .unwrap_or([0.6, 0.6, 0.6, 1.0])
+                    }));
+            } else {
+                simulation
+                    .vertex_colors
+                    .extend(map.iter().map(|&p| simulation.colors[p as usize]));
+            }
             &simulation.vertex_colors
         };
         if let Ok(Some(VertexAttributeValues::Float32x4(out))) =

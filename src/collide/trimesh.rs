@@ -95,7 +95,12 @@ const THIN_COSINE: f32 = 0.3;
 
 /// A triangle mesh with a bounding-volume hierarchy (median split along the longest axis of
 /// the triangle centroids), for closest-point and crossing queries, with the pseudo-normals
-/// that tell inside from outside on a closed mesh (see the [module docs](self)).
+/// that tell inside from outside on a closed mesh: the closest feature's (face, edge or
+/// vertex) angle-weighted normal says which side a point is on. A mesh is closed when every
+/// edge joins exactly two triangles running along it in opposite directions; an open one has
+/// no inside. Its *thin* vertices (an open rim, a tip or ridge where an incident face turns
+/// more than about 73 degrees from the vertex's normal) are tested against the cloth's
+/// triangles, so a feature finer than the cloth cannot pass between its particles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
     vertices: Vec<Vec3A>,
@@ -196,7 +201,7 @@ impl TriMesh {
         self.closed
     }
 
-    /// The number of thin vertices (see the [module docs](self)).
+    /// The number of thin vertices (see [`TriMesh`]).
     pub fn thin_vertex_count(&self) -> usize {
         self.thin_vertices.len()
     }

@@ -231,6 +231,8 @@ fn panel(
                         DebugColorMode::Speed,
                         DebugColorMode::Contact,
                         DebugColorMode::Pinned,
+                        DebugColorMode::AreaStrain,
+                        DebugColorMode::Custom,
                     ] {
                         ui.selectable_value(&mut debug.0, mode, format!("{mode:?}"));
                     }
