@@ -63,6 +63,7 @@ pub mod prelude {
 /// | [`ColliderPlugin`] | moves kinematic colliders and hands every [`collide::plugin::ClothCollider`] to the cloths |
 /// | [`WindPlugin`] | gathers the [`cloth::wind_plugin::Wind`] and every [`cloth::wind_plugin::WindSource`] for the cloths' air |
 /// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
+/// | `collide::avian::AvianColliderPlugin` | with the `avian` feature: every Avian `Collider` is a cloth collider |
 pub struct DrapePlugins {
     schedule: Interned<dyn ScheduleLabel>,
 }
@@ -84,13 +85,16 @@ impl Default for DrapePlugins {
 
 impl PluginGroup for DrapePlugins {
     fn build(self) -> PluginGroupBuilder {
-        PluginGroupBuilder::start::<Self>()
+        let group = PluginGroupBuilder::start::<Self>()
             .add(DrapeSchedulePlugin {
                 schedule: self.schedule,
             })
             .add(SkeletonPlugin)
             .add(ColliderPlugin)
             .add(WindPlugin)
-            .add(ClothPlugin)
+            .add(ClothPlugin);
+        #[cfg(feature = "avian")]
+        let group = group.add(collide::avian::AvianColliderPlugin);
+        group
     }
 }

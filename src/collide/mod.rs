@@ -2,8 +2,10 @@
 //! hierarchy and pseudo-normals), their motion over a fixed step, particle contacts with
 //! restitution and Coulomb friction on the velocity relative to the collider (`contact.rs`),
 //! the cloth's triangles against a mesh's thin features (`thin.rs`); the Bevy components in
-//! [`plugin`].
+//! [`plugin`]; with the `avian` feature, Avian's colliders as cloth colliders (`avian`).
 
+#[cfg(feature = "avian")]
+pub mod avian;
 pub(crate) mod contact;
 pub mod motion;
 pub mod plugin;

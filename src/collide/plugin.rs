@@ -41,8 +41,9 @@ pub enum ColliderShape {
     },
     /// The infinite plane through the origin with normal local +Y; cloth stays above it.
     Plane,
-    /// A triangle mesh (any triangle-list [`Mesh`] asset, an OBJ loaded as one included),
-    /// one-sided: cloth stays in front of its counter-clockwise faces.
+    /// A triangle mesh (any triangle-list [`Mesh`] asset, an OBJ loaded as one included).
+    /// Closed, cloth stays outside it (in front of its counter-clockwise faces); open (a scan
+    /// with holes, a single-sided sheet), on whichever side it came from. See [`TriMesh`].
     TriangleMesh(Handle<Mesh>),
 }
 

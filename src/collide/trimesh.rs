@@ -20,6 +20,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 
+use crate::cloth::weld::{default_tolerance, weld};
 use crate::error::ColliderError;
 
 /// An axis-aligned box.
@@ -166,7 +167,12 @@ impl TriMesh {
                 vertex_count: vertices.len(),
             });
         }
-        let vertices: Vec<Vec3A> = vertices.iter().map(|&v| v.into()).collect();
+        // Meshes split a vertex wherever its normals or texture coordinates differ (every
+        // corner of Bevy's `Cuboid`, a UV sphere's seam): merged, the topology (closed or not,
+        // the pseudo-normals) is the surface's, not its shading's.
+        let welded = weld(vertices, indices, default_tolerance(vertices));
+        let indices = &welded.indices;
+        let vertices: Vec<Vec3A> = welded.positions.iter().map(|&v| v.into()).collect();
         let mut triangles = Vec::with_capacity(indices.len() / 3);
         let mut normals = Vec::with_capacity(indices.len() / 3);
         for t in indices.chunks_exact(3) {
@@ -711,6 +717,29 @@ mod tests {
         assert_eq!(TriMesh::new(&v, &idx).unwrap().thin_vertex_count(), 0);
         let (g, gi) = bumpy_grid(9);
         assert_eq!(TriMesh::new(&g, &gi).unwrap().thin_vertex_count(), 4 * 8);
+    }
+
+    #[test]
+    fn meshes_split_at_their_seams_are_welded_into_one_closed_surface() {
+        // Bevy's cuboid: four vertices of its own per face (24 in all, no edge shared).
+        let cuboid = bevy::mesh::Mesh::from(bevy::math::primitives::Cuboid::new(1.0, 2.0, 0.5));
+        let (v, idx) = crate::mesh::mesh_triangles(&cuboid).unwrap();
+        assert_eq!(v.len(), 24);
+        let mesh = TriMesh::new(&v, &idx).unwrap();
+        assert!(mesh.is_closed());
+        assert_eq!(mesh.thin_vertex_count(), 0);
+        let shape = crate::collide::SolverShape::TriangleMesh(std::sync::Arc::new(mesh));
+        let (d, n) = shape
+            .signed_distance(Vec3A::new(0.3, 0.9, 0.0), 1.0)
+            .unwrap();
+        assert!(
+            (d + 0.1).abs() < 1e-5 && n.abs_diff_eq(Vec3A::Y, 1e-5),
+            "{d} {n}"
+        );
+        // A UV sphere, split along its seam and at its poles.
+        let sphere = bevy::mesh::Mesh::from(bevy::math::primitives::Sphere::new(0.5));
+        let (v, idx) = crate::mesh::mesh_triangles(&sphere).unwrap();
+        assert!(TriMesh::new(&v, &idx).unwrap().is_closed());
     }
 
     #[test]
