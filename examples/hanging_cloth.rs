@@ -6,6 +6,10 @@
 //! ```
 //!
 //! Drag with the mouse to orbit, scroll to zoom, space to reset, P to pause.
+//!
+//! The cloth takes its settings from `assets/settings/hanging_cloth.cloth.ron`: edit the file
+//! while it runs (substeps, compliances, damping, density, ...) and the cloth changes as you
+//! save it.
 
 mod common;
 
@@ -32,6 +36,7 @@ fn setup(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    server: Res<AssetServer>,
 ) {
     spawn_stage(
         &mut commands,
@@ -46,6 +51,7 @@ fn setup(
         Mesh3d(meshes.add(grid_mesh(&grid))),
         MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.75, 0.2, 0.15))),
         Cloth::pinned([grid.index(0, 0), grid.index(N - 1, 0)]),
+        ClothSettingsFile(server.load("settings/hanging_cloth.cloth.ron")),
         Transform::from_xyz(0.0, HEIGHT, 0.0),
     ));
     // Two posts to show where the corners hang from.

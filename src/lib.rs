@@ -31,6 +31,7 @@ pub mod prelude {
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
         ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
+    pub use crate::cloth::settings_file::{ClothSettingsAsset, ClothSettingsFile};
     pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
     pub use crate::cloth::{
         AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,

@@ -16,6 +16,9 @@ use super::flat_layout::FlatLayout;
 use super::mesh::compute_normals;
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
+use super::settings_file::{
+    ClothSettingsAsset, ClothSettingsFile, ClothSettingsLoader, apply_settings_files,
+};
 use super::sim::{ClothSolver, Divergence};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
@@ -340,7 +343,15 @@ impl Plugin for ClothPlugin {
         .init_resource::<DrapeSettings>()
         .init_resource::<ClothDebugColors>()
         .add_message::<ClothDiverged>()
-        .add_systems(schedule, build_cloths.in_set(DrapeSystems::Prepare))
+        .init_asset::<ClothSettingsAsset>()
+        .init_asset_loader::<ClothSettingsLoader>()
+        .register_type::<ClothSettingsFile>()
+        .add_systems(
+            schedule,
+            (apply_settings_files, build_cloths)
+                .chain()
+                .in_set(DrapeSystems::Prepare),
+        )
         .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
         .add_systems(
             PostUpdate,
