@@ -51,7 +51,7 @@ fn setup(
         Mesh3d(meshes.add(grid_mesh(&grid))),
         MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.75, 0.2, 0.15))),
         Cloth::pinned([grid.index(0, 0), grid.index(N - 1, 0)]),
-        ClothSettingsFile(server.load("settings/hanging_cloth.cloth.ron")),
+        ClothSettingsFile::new(server.load("settings/hanging_cloth.cloth.ron")),
         Transform::from_xyz(0.0, HEIGHT, 0.0),
     ));
     // Two posts to show where the corners hang from.

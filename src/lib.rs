@@ -7,6 +7,7 @@ pub mod cloth;
 pub use bevy_obj;
 pub mod collide;
 pub mod error;
+pub mod files;
 pub mod interact;
 pub mod mesh;
 pub mod schedule;
@@ -31,7 +32,6 @@ pub mod prelude {
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
         ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
-    pub use crate::cloth::settings_file::{ClothSettingsAsset, ClothSettingsFile};
     pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
     pub use crate::cloth::{
         AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,
@@ -44,6 +44,7 @@ pub mod prelude {
         KinematicVelocity, StepColliders,
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
+    pub use crate::files::{BoneCollidersFile, ClothSettingsFile, FileAsset, FromFile};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};

@@ -891,7 +891,6 @@ fn settings_and_components_are_reflected_so_an_inspector_can_edit_them() {
         ("DefaultClothSettings", false),
         ("DrapeTimings", false),
         ("ClothPaint", true),
-        ("ClothSettingsFile", true),
     ] {
         let registration = registry
             .get_with_short_type_path(name)

@@ -23,7 +23,6 @@ pub(crate) mod rest_paths;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod self_collision;
 pub(crate) mod settings;
-pub mod settings_file;
 pub(crate) mod sim;
 pub(crate) mod state;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]

@@ -16,9 +16,6 @@ use super::flat_layout::FlatLayout;
 use super::mesh::compute_normals;
 use super::model::ClothModel;
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use super::settings_file::{
-    ClothSettingsAsset, ClothSettingsFile, ClothSettingsLoader, apply_settings_files,
-};
 use super::sim::{ClothSolver, Divergence};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
@@ -332,6 +329,7 @@ pub struct ClothPlugin;
 impl Plugin for ClothPlugin {
     fn build(&self, app: &mut App) {
         let schedule = DrapeSchedule::of(app);
+        crate::files::add_file_type::<ClothSettings, _>(app, schedule, build_cloths);
         app.register_type::<(
             Cloth,
             ClothSettings,
@@ -343,15 +341,6 @@ impl Plugin for ClothPlugin {
         .init_resource::<DrapeSettings>()
         .init_resource::<ClothDebugColors>()
         .add_message::<ClothDiverged>()
-        .init_asset::<ClothSettingsAsset>()
-        .init_asset_loader::<ClothSettingsLoader>()
-        .register_type::<ClothSettingsFile>()
-        .add_systems(
-            schedule,
-            (apply_settings_files, build_cloths)
-                .chain()
-                .in_set(DrapeSystems::Prepare),
-        )
         .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
         .add_systems(
             PostUpdate,

@@ -204,10 +204,11 @@ pub struct SkeletonPlugin;
 impl Plugin for SkeletonPlugin {
     fn build(&self, app: &mut App) {
         let schedule = DrapeSchedule::of(app);
+        crate::files::add_file_type::<BoneColliders, _>(app, PreUpdate, spawn_bones);
         app.register_type::<(BoneColliders, BoneProxyOf, ClipPlayer, InverseKinematics)>()
             .init_asset::<ClipAsset>()
             .init_asset_loader::<ClipLoader>()
-            .add_systems(PreUpdate, spawn_bones)
+            .add_systems(PreUpdate, respawn_changed_proxies.before(spawn_bones))
             .add_systems(
                 schedule,
                 (track_skeletons, play_clips)
@@ -241,6 +242,58 @@ fn local_transform(rig: &Rig, bone: usize, pose: &Pose) -> Transform {
     }
 }
 
+/// Spawns the collision proxies of `colliders` on the bone entities of skeleton `entity`.
+fn spawn_proxies(
+    commands: &mut Commands,
+    entity: Entity,
+    rig: &Rig,
+    bones: &[Entity],
+    colliders: &BoneColliders,
+) {
+    for proxy in &colliders.proxies {
+        let Some(bone) = rig.find(&proxy.bone) else {
+            warn!(
+                "skeleton {entity}: collision proxy on bone {:?}, which the rig does not have",
+                proxy.bone
+            );
+            continue;
+        };
+        let mut collider = ClothCollider::capsule(proxy.radius, proxy.half_length);
+        collider.material = colliders.material;
+        collider.margin = colliders.margin;
+        commands.spawn((
+            Name::new(format!("{} proxy", proxy.bone)),
+            collider,
+            Transform::from_translation(proxy.centre).with_rotation(proxy.rotation()),
+            BoneProxyOf(entity),
+            ChildOf(bones[bone]),
+        ));
+    }
+}
+
+/// Spawns the proxies again of every skeleton whose [`BoneColliders`] changed after its bones
+/// were spawned (a colliders file reloaded, an inspector's edit).
+fn respawn_changed_proxies(
+    mut commands: Commands,
+    skeletons: Query<(Entity, &BoneColliders, &SkeletonBones), Changed<BoneColliders>>,
+    proxies: Query<(Entity, &BoneProxyOf)>,
+) {
+    for (entity, colliders, bones) in &skeletons {
+        for (proxy, of) in &proxies {
+            if of.0 == entity {
+                commands.entity(proxy).despawn();
+            }
+        }
+        spawn_proxies(
+            &mut commands,
+            entity,
+            &bones.rig,
+            &bones.entities,
+            colliders,
+        );
+    }
+}
+
 /// Spawns the bone entities of every new skeleton, in its rest pose.
 fn spawn_bones(
     mut commands: Commands,
@@ -268,25 +321,8 @@ fn spawn_bones(
                 .id();
             entities.push(id);
         }
-        for proxy in proxies.map_or(&[][..], |p| &p.proxies[..]) {
-            let settings = proxies.expect("proxies come from a BoneColliders");
-            let Some(bone) = rig.find(&proxy.bone) else {
-                warn!(
-                    "skeleton {entity}: collision proxy on bone {:?}, which the rig does not have",
-                    proxy.bone
-                );
-                continue;
-            };
-            let mut collider = ClothCollider::capsule(proxy.radius, proxy.half_length);
-            collider.material = settings.material;
-            collider.margin = settings.margin;
-            commands.spawn((
-                Name::new(format!("{} proxy", proxy.bone)),
-                collider,
-                Transform::from_translation(proxy.centre).with_rotation(proxy.rotation()),
-                BoneProxyOf(entity),
-                ChildOf(entities[bone]),
-            ));
+        if let Some(proxies) = proxies {
+            spawn_proxies(&mut commands, entity, rig, &entities, proxies);
         }
         let mut bones = Vec::new();
         rig.forward(&pose, None, &mut bones);

@@ -1,6 +1,7 @@
-//! Cloth settings as RON assets: written and read back field for field, the shipped file read,
-//! and in an App a cloth taking its settings from a file, again when the file changes, and
-//! keeping them when a file does not parse.
+//! Settings as RON files: cloth settings and a character's colliders written and read back
+//! field for field, the shipped file read, and in an App a cloth taking its settings from a
+//! file, again when the file changes, keeping them when a file does not parse, and a
+//! character's proxies spawned again when its colliders file changes.
 
 use std::time::Duration;
 
@@ -9,7 +10,7 @@ use bevy::mesh::{Mesh, MeshPlugin};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
-use bevy_drape::cloth::settings_file::{settings_from_ron, settings_to_ron};
+use bevy_drape::files::{from_ron, to_ron};
 use bevy_drape::prelude::*;
 
 fn app(assets: &std::path::Path) -> App {
@@ -49,14 +50,23 @@ fn unusual() -> ClothSettings {
 }
 
 #[test]
-fn settings_written_as_ron_read_back_field_for_field_and_the_shipped_file_reads() {
+fn settings_and_colliders_written_as_ron_read_back_field_for_field_and_the_shipped_file_reads() {
     let registry = AppTypeRegistry::default();
     registry.write().register::<ClothSettings>();
+    registry.write().register::<BoneColliders>();
     let registry = registry.read();
+    let mut colliders = BoneColliders::humanoid();
+    colliders.proxies[3].radius = 0.123;
+    colliders.margin = 0.02;
+    let text = to_ron(&colliders, &registry).unwrap();
+    assert_eq!(
+        from_ron::<BoneColliders>(&text, &registry).unwrap(),
+        colliders
+    );
     for settings in [ClothSettings::default(), unusual()] {
-        let text = settings_to_ron(&settings, &registry).unwrap();
+        let text = to_ron(&settings, &registry).unwrap();
         assert_eq!(
-            settings_from_ron(&text, &registry).unwrap(),
+            from_ron::<ClothSettings>(&text, &registry).unwrap(),
             settings,
             "{text}"
         );
@@ -66,12 +76,12 @@ fn settings_written_as_ron_read_back_field_for_field_and_the_shipped_file_reads(
         "/assets/settings/hanging_cloth.cloth.ron"
     ))
     .unwrap();
-    let read = settings_from_ron(&shipped, &registry).unwrap();
+    let read = from_ron::<ClothSettings>(&shipped, &registry).unwrap();
     // The file names every field: written again, it reads the same.
-    let again = settings_to_ron(&read, &registry).unwrap();
-    assert_eq!(settings_from_ron(&again, &registry).unwrap(), read);
-    assert!(settings_from_ron("(density: 1.0)", &registry).is_err());
-    assert!(settings_from_ron("not ron at all", &registry).is_err());
+    let again = to_ron(&read, &registry).unwrap();
+    assert_eq!(from_ron::<ClothSettings>(&again, &registry).unwrap(), read);
+    assert!(from_ron::<ClothSettings>("(density: 1.0)", &registry).is_err());
+    assert!(from_ron::<ClothSettings>("not ron at all", &registry).is_err());
 }
 
 #[test]
@@ -80,7 +90,7 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
     std::fs::create_dir_all(&dir).unwrap();
     let registry = AppTypeRegistry::default();
     registry.write().register::<ClothSettings>();
-    let text = settings_to_ron(&unusual(), &registry.read()).unwrap();
+    let text = to_ron(&unusual(), &registry.read()).unwrap();
     std::fs::write(dir.join("garment.cloth.ron"), text).unwrap();
     std::fs::write(dir.join("broken.cloth.ron"), "(density: oops").unwrap();
     let mut app = app(&dir);
@@ -92,17 +102,17 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
     let file = app
         .world()
         .resource::<AssetServer>()
-        .load::<ClothSettingsAsset>("garment.cloth.ron");
+        .load::<FileAsset<ClothSettings>>("garment.cloth.ron");
     let broken = app
         .world()
         .resource::<AssetServer>()
-        .load::<ClothSettingsAsset>("broken.cloth.ron");
+        .load::<FileAsset<ClothSettings>>("broken.cloth.ron");
     let cloth = app
         .world_mut()
         .spawn((
             Mesh3d(mesh.clone()),
             Cloth::pinned([0, 7]),
-            ClothSettingsFile(file.clone()),
+            ClothSettingsFile::new(file.clone()),
             Transform::from_xyz(0.0, 1.0, 0.0),
         ))
         .id();
@@ -115,7 +125,7 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
                 density: 0.2,
                 ..Default::default()
             },
-            ClothSettingsFile(broken),
+            ClothSettingsFile::new(broken),
             Transform::from_xyz(2.0, 1.0, 0.0),
         ))
         .id();
@@ -141,7 +151,7 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
     assert_eq!(substeps, 13);
     // The file changes (what the file watcher's reload does to the asset): so do the settings.
     app.world_mut()
-        .resource_mut::<Assets<ClothSettingsAsset>>()
+        .resource_mut::<Assets<FileAsset<ClothSettings>>>()
         .get_mut(&file)
         .unwrap()
         .0
@@ -153,5 +163,75 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
     // The broken file: a warning, and the cloth keeps its own settings and runs on.
     assert_eq!(settings(&app, kept).unwrap().density, 0.2);
     assert!(app.world().get::<ClothSimulation>(kept).is_some());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_characters_proxies_are_spawned_again_when_its_colliders_file_changes() {
+    let dir = std::env::temp_dir().join(format!("bevy_drape_colliders_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let registry = AppTypeRegistry::default();
+    registry.write().register::<BoneColliders>();
+    let mut colliders = BoneColliders::humanoid();
+    colliders.proxies.truncate(5);
+    colliders.proxies[0].radius = 0.2;
+    let text = to_ron(&colliders, &registry.read()).unwrap();
+    std::fs::write(dir.join("character.colliders.ron"), text).unwrap();
+    let mut app = app(&dir);
+    let file = app
+        .world()
+        .resource::<AssetServer>()
+        .load::<FileAsset<BoneColliders>>("character.colliders.ron");
+    let character = app
+        .world_mut()
+        .spawn((
+            Skeleton {
+                rig: std::sync::Arc::new(humanoid()),
+            },
+            BoneCollidersFile::new(file.clone()),
+            Transform::default(),
+        ))
+        .id();
+    let radii = |app: &mut App| {
+        let world = app.world_mut();
+        let mut r: Vec<f32> = world
+            .query::<(&ClothCollider, &BoneProxyOf)>()
+            .iter(world)
+            .filter(|(_, of)| of.0 == character)
+            .map(|(c, _)| match c.shape {
+                ColliderShape::Capsule { radius, .. } => radius,
+                _ => panic!("proxies are capsules"),
+            })
+            .collect();
+        r.sort_by(f32::total_cmp);
+        r
+    };
+    for _ in 0..200 {
+        app.update();
+        if !radii(&mut app).is_empty() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    app.update();
+    let mut expected: Vec<f32> = colliders.proxies.iter().map(|p| p.radius).collect();
+    expected.sort_by(f32::total_cmp);
+    assert_eq!(radii(&mut app), expected);
+    // The file changes: the old proxies go, the new ones come, as many as it lists.
+    {
+        let mut files = app
+            .world_mut()
+            .resource_mut::<Assets<FileAsset<BoneColliders>>>();
+        let asset = &mut files.get_mut(&file).unwrap().0;
+        asset.proxies.truncate(3);
+        asset.proxies[1].radius = 0.31;
+    }
+    for _ in 0..3 {
+        app.update();
+    }
+    let mut expected: Vec<f32> = colliders.proxies[..3].iter().map(|p| p.radius).collect();
+    expected[1] = 0.31;
+    expected.sort_by(f32::total_cmp);
+    assert_eq!(radii(&mut app), expected);
     std::fs::remove_dir_all(&dir).ok();
 }
