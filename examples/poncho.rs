@@ -23,7 +23,7 @@ use bevy::prelude::*;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, OrbitCamera, cloth_material, dress_humanoids, spawn_stage};
+use common::{ExamplePlugin, dress_humanoids, dress_ponchos, follow_with_camera, spawn_stage};
 use drape_scenes::poncho::{
     Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
     run_headless,
@@ -75,7 +75,13 @@ fn main() {
         .add_systems(Startup, setup)
         .add_systems(
             Update,
-            (dress_humanoids, dress_poncho, keys, label, follow_character),
+            (
+                dress_humanoids,
+                dress_ponchos,
+                keys,
+                label,
+                follow_with_camera::<Character>,
+            ),
         );
     app.run();
     if !windowed {
@@ -94,24 +100,6 @@ fn print_s3_figures() {
     match run_headless(scene, 600) {
         Ok(run) => println!("S3 (10 s headless): {}", run.json(&solver)),
         Err(e) => println!("S3: {e}"),
-    }
-}
-
-/// The camera's focus follows the character (smoothly), 1 m above its feet; the orbit keeps
-/// its angles and distance (the mouse turns and zooms it in a window).
-fn follow_character(
-    characters: Query<&GlobalTransform, With<Character>>,
-    mut cameras: Query<(&mut OrbitCamera, &mut Transform)>,
-    time: Res<Time>,
-) {
-    let Ok(character) = characters.single() else {
-        return;
-    };
-    let goal = character.translation() + Vec3::Y;
-    let blend = 1.0 - (-4.0 * time.delta_secs()).exp();
-    for (mut orbit, mut transform) in &mut cameras {
-        orbit.focus = orbit.focus.lerp(goal, blend);
-        *transform = orbit.transform();
     }
 }
 
@@ -159,22 +147,6 @@ fn setup(
         },
         Label,
     ));
-}
-
-/// Gives the poncho its material once it is spawned.
-fn dress_poncho(
-    mut commands: Commands,
-    ponchos: Query<Entity, Added<Poncho>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
-) {
-    for poncho in &ponchos {
-        commands
-            .entity(poncho)
-            .insert(MeshMaterial3d(cloth_material(
-                &mut materials,
-                Color::srgb(0.75, 0.25, 0.2),
-            )));
-    }
 }
 
 fn keys(

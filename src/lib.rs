@@ -47,6 +47,8 @@ pub mod prelude {
     pub use crate::files::{BoneCollidersFile, ClothSettingsFile, FileAsset, FromFile};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
+    #[cfg(feature = "animation")]
+    pub use crate::skeleton::fixed_step_animation::FixedStepAnimation;
     pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};
     pub use crate::skeleton::ik::{IkChain, IkError, IkResult, IkSettings};
     pub use crate::skeleton::plugin::{
@@ -66,6 +68,7 @@ pub mod prelude {
 /// | [`WindPlugin`] | gathers the [`cloth::wind_plugin::Wind`] and every [`cloth::wind_plugin::WindSource`] for the cloths' air |
 /// | [`ClothPlugin`] | builds, steps and draws every [`cloth::plugin::Cloth`] |
 /// | `collide::avian::AvianColliderPlugin` | with the `avian` feature: every Avian `Collider` is a cloth collider |
+/// | `skeleton::fixed_step_animation::FixedStepAnimationPlugin` | with the `animation` feature: Bevy's animation players under a `FixedStepAnimation` root stepped with the cloth |
 pub struct DrapePlugins {
     schedule: Interned<dyn ScheduleLabel>,
 }
@@ -97,6 +100,8 @@ impl PluginGroup for DrapePlugins {
             .add(ClothPlugin);
         #[cfg(feature = "avian")]
         let group = group.add(collide::avian::AvianColliderPlugin);
+        #[cfg(feature = "animation")]
+        let group = group.add(skeleton::fixed_step_animation::FixedStepAnimationPlugin);
         group
     }
 }

@@ -285,3 +285,40 @@ pub(crate) fn dress_humanoids(
         }
     }
 }
+
+/// Gives every poncho of the main scene (`drape_scenes::poncho::Poncho`) its material once it
+/// is spawned.
+#[allow(dead_code)]
+pub(crate) fn dress_ponchos(
+    mut commands: Commands,
+    ponchos: Query<Entity, Added<drape_scenes::poncho::Poncho>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    for poncho in &ponchos {
+        commands
+            .entity(poncho)
+            .insert(MeshMaterial3d(cloth_material(
+                &mut materials,
+                Color::srgb(0.75, 0.25, 0.2),
+            )));
+    }
+}
+
+/// The orbit camera's focus follows the entity with `C` (smoothly), 1 m above its origin; the
+/// orbit keeps its angles and distance (the mouse turns and zooms it in a window).
+#[allow(dead_code)]
+pub(crate) fn follow_with_camera<C: Component>(
+    followed: Query<&GlobalTransform, With<C>>,
+    mut cameras: Query<(&mut OrbitCamera, &mut Transform)>,
+    time: Res<Time>,
+) {
+    let Ok(followed) = followed.single() else {
+        return;
+    };
+    let goal = followed.translation() + Vec3::Y;
+    let blend = 1.0 - (-4.0 * time.delta_secs()).exp();
+    for (mut orbit, mut transform) in &mut cameras {
+        orbit.focus = orbit.focus.lerp(goal, blend);
+        *transform = orbit.transform();
+    }
+}

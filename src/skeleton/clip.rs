@@ -142,12 +142,12 @@ impl Clip {
     }
 
     /// The clip's length, seconds.
-    pub(crate) fn duration(&self) -> f32 {
+    pub fn duration(&self) -> f32 {
         self.end - self.start
     }
 
     /// Whether it loops.
-    pub(crate) fn looping(&self) -> bool {
+    pub fn looping(&self) -> bool {
         self.looping
     }
 

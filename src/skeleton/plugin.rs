@@ -74,11 +74,20 @@ pub struct Skeleton {
     pub rig: Arc<Rig>,
 }
 
-/// Collision proxies for the cloth on the bones of the [`Skeleton`] of the same entity: when
-/// the bones are spawned, each proxy becomes a [`ClothCollider`] capsule (or sphere) on a
-/// child entity of its bone, moving with it and taking its velocity from the joints'
-/// ([`AnimatedVelocity`]). A proxy naming a bone the rig does not have is skipped with a
-/// warning naming the entity.
+/// Collision proxies for the cloth on a character's bones, by bone name: each proxy becomes a
+/// [`ClothCollider`] capsule (or sphere) on a child entity of its bone, moving with it.
+///
+/// - With a [`Skeleton`] on the same entity, the bones are the rig's: the proxies are spawned
+///   with the bone entities and take their velocity from the joints' ([`AnimatedVelocity`]).
+/// - On any other entity (the root of a glTF scene animated by Bevy's `AnimationPlayer`, a
+///   hierarchy of your own), a proxy's bone is the first descendant whose [`Name`] is the
+///   proxy's bone name. The proxies are attached as soon as a descendant has one of the names
+///   (a scene spawns after its file loads) and take their velocity from their own motion
+///   over each fixed step (see [`crate::collide::motion`]).
+///
+/// A proxy naming a bone that is not there is skipped with a warning naming the entity. When
+/// the component changes (a colliders file reloaded, an inspector's edit) the proxies are
+/// spawned again.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct BoneColliders {
@@ -204,11 +213,15 @@ pub struct SkeletonPlugin;
 impl Plugin for SkeletonPlugin {
     fn build(&self, app: &mut App) {
         let schedule = DrapeSchedule::of(app);
-        crate::files::add_file_type::<BoneColliders, _>(app, PreUpdate, spawn_bones);
+        // A colliders file is applied first, then proxies are spawned (again) from it.
+        crate::files::add_file_type::<BoneColliders, _>(
+            app,
+            PreUpdate,
+            (respawn_changed_proxies, attach_proxies_by_name, spawn_bones).chain(),
+        );
         app.register_type::<(BoneColliders, BoneProxyOf, ClipPlayer, InverseKinematics)>()
             .init_asset::<ClipAsset>()
             .init_asset_loader::<ClipLoader>()
-            .add_systems(PreUpdate, respawn_changed_proxies.before(spawn_bones))
             .add_systems(
                 schedule,
                 (track_skeletons, play_clips)
@@ -242,18 +255,23 @@ fn local_transform(rig: &Rig, bone: usize, pose: &Pose) -> Transform {
     }
 }
 
-/// Spawns the collision proxies of `colliders` on the bone entities of skeleton `entity`.
+/// Marks an entity without a [`Skeleton`] whose [`BoneColliders`] have been attached to its
+/// descendants by name.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub(crate) struct ProxiesAttachedByName;
+
+/// Spawns the collision proxies of `colliders` (of character `entity`) on the bone entities
+/// `bone` finds by name.
 fn spawn_proxies(
     commands: &mut Commands,
     entity: Entity,
-    rig: &Rig,
-    bones: &[Entity],
     colliders: &BoneColliders,
+    bone: impl Fn(&str) -> Option<Entity>,
 ) {
     for proxy in &colliders.proxies {
-        let Some(bone) = rig.find(&proxy.bone) else {
+        let Some(bone) = bone(&proxy.bone) else {
             warn!(
-                "skeleton {entity}: collision proxy on bone {:?}, which the rig does not have",
+                "character {entity}: collision proxy on bone {:?}, which it does not have",
                 proxy.bone
             );
             continue;
@@ -266,31 +284,84 @@ fn spawn_proxies(
             collider,
             Transform::from_translation(proxy.centre).with_rotation(proxy.rotation()),
             BoneProxyOf(entity),
-            ChildOf(bones[bone]),
+            ChildOf(bone),
         ));
     }
 }
 
-/// Spawns the proxies again of every skeleton whose [`BoneColliders`] changed after its bones
-/// were spawned (a colliders file reloaded, an inspector's edit).
+/// Characters whose [`BoneColliders`] changed after their proxies were spawned.
+type ChangedAfterSpawn = (
+    Changed<BoneColliders>,
+    Or<(With<SkeletonBones>, With<ProxiesAttachedByName>)>,
+);
+
+/// Characters without a [`Skeleton`] whose proxies are not attached yet.
+type NotYetAttached = (Without<Skeleton>, Without<ProxiesAttachedByName>);
+
+/// Spawns the proxies again of every character whose [`BoneColliders`] changed after they were
+/// spawned (a colliders file reloaded, an inspector's edit): at once on a skeleton, through
+/// [`attach_proxies_by_name`] on any other entity.
 fn respawn_changed_proxies(
     mut commands: Commands,
-    skeletons: Query<(Entity, &BoneColliders, &SkeletonBones), Changed<BoneColliders>>,
+    characters: Query<(Entity, &BoneColliders, Option<&SkeletonBones>), ChangedAfterSpawn>,
     proxies: Query<(Entity, &BoneProxyOf)>,
 ) {
-    for (entity, colliders, bones) in &skeletons {
+    for (entity, colliders, bones) in &characters {
         for (proxy, of) in &proxies {
             if of.0 == entity {
                 commands.entity(proxy).despawn();
             }
         }
-        spawn_proxies(
-            &mut commands,
-            entity,
-            &bones.rig,
-            &bones.entities,
-            colliders,
-        );
+        match bones {
+            Some(bones) => spawn_proxies(&mut commands, entity, colliders, |name| bones.get(name)),
+            None => {
+                commands.entity(entity).remove::<ProxiesAttachedByName>();
+            }
+        }
+    }
+}
+
+/// Attaches the [`BoneColliders`] of every entity without a [`Skeleton`] to its descendants
+/// by [`Name`], once one of them has a proxy's bone name (a scene spawns some frames after it
+/// is asked for). An entity whose descendants have none of the names is reported once.
+fn attach_proxies_by_name(
+    mut commands: Commands,
+    characters: Query<(Entity, &BoneColliders), NotYetAttached>,
+    children: Query<&Children>,
+    names: Query<&Name>,
+    mut reported: Local<Vec<Entity>>,
+) {
+    for (entity, colliders) in &characters {
+        let mut bones: Vec<(&str, Entity)> = Vec::new();
+        let mut descendants = 0usize;
+        for descendant in children.iter_descendants(entity) {
+            descendants += 1;
+            let Ok(name) = names.get(descendant) else {
+                continue;
+            };
+            let name = name.as_str();
+            if !bones.iter().any(|(n, _)| *n == name)
+                && colliders.proxies.iter().any(|p| p.bone == name)
+            {
+                bones.push((name, descendant));
+            }
+        }
+        if bones.is_empty() {
+            if descendants > 0 && !colliders.proxies.is_empty() && !reported.contains(&entity) {
+                warn!(
+                    "character {entity}: none of its {descendants} descendants is named like a \
+                     bone of its BoneColliders (the first is {:?})",
+                    colliders.proxies[0].bone
+                );
+                reported.push(entity);
+            }
+            continue;
+        }
+        reported.retain(|&e| e != entity);
+        spawn_proxies(&mut commands, entity, colliders, |name| {
+            bones.iter().find(|(n, _)| *n == name).map(|&(_, e)| e)
+        });
+        commands.entity(entity).insert(ProxiesAttachedByName);
     }
 }
 
@@ -322,7 +393,9 @@ fn spawn_bones(
             entities.push(id);
         }
         if let Some(proxies) = proxies {
-            spawn_proxies(&mut commands, entity, rig, &entities, proxies);
+            spawn_proxies(&mut commands, entity, proxies, |name| {
+                rig.find(name).map(|i| entities[i])
+            });
         }
         let mut bones = Vec::new();
         rig.forward(&pose, None, &mut bones);

@@ -8,9 +8,14 @@
 //! - [`study`]: the measurements behind the `speed_accuracy` charts.
 //! - [`scan`]: random scan-like meshes (thin ears, open bottoms, dented rocks) for the mesh
 //!   collider tests and benches.
+//! - [`gltf_character`]: the poncho on that character loaded as a glTF scene and animated by
+//!   Bevy's `AnimationPlayer`.
+//! - [`gltf_export`]: the humanoid, a body skinned to it and its clips as a `.glb` file.
 //! - [`poncho`]: S3, the poncho on the walking character, as a plugin ([`poncho::PonchoScenePlugin`])
 //!   and as a headless run with its figures ([`poncho::run_headless`]).
 
+pub mod gltf_character;
+pub mod gltf_export;
 pub mod poncho;
 pub mod scan;
 pub mod scenes;

@@ -1,0 +1,221 @@
+//! The poncho on a glTF character: the humanoid loaded from `characters/humanoid.glb` (see
+//! [`crate::gltf_export`]) as a scene, animated by Bevy's `AnimationPlayer` playing the file's
+//! `walk` animation, wearing the poncho with [`BoneColliders::humanoid`] attached to its joints
+//! by name (the poncho is put on once they are there) and `FixedStepAnimation`, so the
+//! player is stepped with the cloth. A [`CharacterController`] moves the scene's root through the world and sets the
+//! animation's speed so the feet do not skate.
+//!
+//! [`GltfCharacterPlugin`] spawns everything but what is drawn; the `gltf_character` example
+//! adds the camera and materials, [`headless_app`] runs it with `MinimalPlugins`.
+
+use bevy::animation::graph::{AnimationGraph, AnimationGraphHandle, AnimationNodeIndex};
+use bevy::animation::{AnimationClip, AnimationPlayer};
+use bevy::gltf::{Gltf, GltfAssetLabel};
+use bevy::prelude::*;
+use bevy::world_serialization::WorldAssetRoot;
+
+use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
+use bevy_drape::collide::plugin::ClothCollider;
+use bevy_drape::prelude::{Clip, ClipDesc, FixedStepAnimation, humanoid};
+use bevy_drape::schedule::DrapeSystems;
+use bevy_drape::skeleton::plugin::{BoneColliders, BoneProxyOf};
+
+use crate::poncho::{CharacterController, CharacterMotion, Poncho};
+
+/// The character's file in the assets folder.
+pub const CHARACTER_FILE: &str = "characters/humanoid.glb";
+
+/// What [`GltfCharacterPlugin`] spawns.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct GltfCharacterScene {
+    /// How the character moves.
+    pub motion: CharacterMotion,
+    /// Where the poncho starts above the character's root, metres.
+    pub start_height: f32,
+}
+
+impl Default for GltfCharacterScene {
+    fn default() -> Self {
+        Self {
+            motion: CharacterMotion::Walk,
+            start_height: 1.5,
+        }
+    }
+}
+
+/// Marks the root entity of the glTF character (the one with the scene, the colliders and the
+/// controller).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct GltfCharacter;
+
+/// The walk animation, once the file has loaded.
+#[derive(Resource)]
+struct Walk {
+    file: Handle<Gltf>,
+    graph: Option<(Handle<AnimationGraph>, AnimationNodeIndex)>,
+}
+
+/// Spawns the glTF character, the ground and the poncho, plays the walk and moves the
+/// character (see the [module docs](self)).
+#[derive(Default)]
+pub struct GltfCharacterPlugin;
+
+impl Plugin for GltfCharacterPlugin {
+    fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<bevy_obj::ObjPlugin>() {
+            app.add_plugins(bevy_obj::ObjPlugin);
+        }
+        app.init_resource::<GltfCharacterScene>()
+            .add_systems(Startup, spawn)
+            .add_systems(Update, (play_walk, dress))
+            .add_systems(FixedUpdate, drive.before(DrapeSystems::Prepare));
+    }
+}
+
+/// A headless App (`MinimalPlugins`, transforms, assets, meshes, scenes, glTF and animation)
+/// with [`bevy_drape::DrapePlugins`] and the scene, assets from the crate's folder, stepping
+/// one 1/60 s fixed step per update.
+pub fn headless_app(scene: GltfCharacterScene) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        bevy::transform::TransformPlugin,
+        AssetPlugin {
+            file_path: concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets").into(),
+            ..default()
+        },
+        bevy::mesh::MeshPlugin,
+        bevy::world_serialization::WorldSerializationPlugin,
+        bevy::gltf::GltfPlugin::default(),
+        bevy::animation::AnimationPlugin,
+        bevy_drape::DrapePlugins::default(),
+        GltfCharacterPlugin,
+    ))
+    .insert_resource(scene)
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+        std::time::Duration::from_secs_f64(1.0 / 60.0),
+    ));
+    app.finish();
+    app.cleanup();
+    app
+}
+
+fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>, server: Res<AssetServer>) {
+    let mut controller = CharacterController::new(scene.motion);
+    // The file's walk is the crate's walk clip, so its no-skate speed is the clip's.
+    let rig = humanoid();
+    let feet: Vec<usize> = ["foot_l", "foot_r"]
+        .iter()
+        .filter_map(|f| rig.find(f))
+        .collect();
+    controller.stance_speed =
+        ClipDesc::from_ron(include_str!("../../../assets/clips/walk.clip.ron"))
+            .ok()
+            .and_then(|desc| Clip::new(&desc, &rig).ok())
+            .and_then(|clip| clip.stance_speed(&rig, &feet, Vec3::Z));
+    commands.spawn((
+        Name::new("character"),
+        GltfCharacter,
+        WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset(CHARACTER_FILE))),
+        BoneColliders::humanoid(),
+        // Its animation stepped with the cloth, not once per rendered frame.
+        FixedStepAnimation,
+        controller,
+        Transform::default(),
+    ));
+    commands.insert_resource(Walk {
+        file: server.load(CHARACTER_FILE),
+        graph: None,
+    });
+    commands.spawn((
+        Name::new("ground"),
+        ClothCollider::plane().with_friction(0.6),
+        Transform::default(),
+    ));
+}
+
+/// Puts the poncho on each character once its proxies are on its joints (the scene spawns
+/// some frames after it is asked for; a cloth dropped before would fall through the body),
+/// `start_height` above the character's root.
+fn dress(
+    mut commands: Commands,
+    scene: Res<GltfCharacterScene>,
+    server: Res<AssetServer>,
+    characters: Query<(Entity, &Transform, Has<Dressed>), With<GltfCharacter>>,
+    proxies: Query<&BoneProxyOf>,
+) {
+    for (character, transform, dressed) in &characters {
+        if dressed || !proxies.iter().any(|of| of.0 == character) {
+            continue;
+        }
+        commands.entity(character).insert(Dressed);
+        commands.spawn((
+            Name::new("poncho"),
+            Poncho,
+            Mesh3d(server.load("meshes/poncho.obj")),
+            Cloth::worn_by(character),
+            ClothSettings::default(),
+            Transform::from_translation(transform.translation + Vec3::Y * scene.start_height)
+                .with_rotation(transform.rotation),
+        ));
+    }
+}
+
+/// Marks a character that has its poncho.
+#[derive(Component)]
+struct Dressed;
+
+/// Starts the file's `walk` on every animation player of the scene, looping, once the file
+/// and the scene are there.
+fn play_walk(
+    mut commands: Commands,
+    mut walk: ResMut<Walk>,
+    files: Res<Assets<Gltf>>,
+    mut graphs: ResMut<Assets<AnimationGraph>>,
+    mut players: Query<(Entity, &mut AnimationPlayer), Without<AnimationGraphHandle>>,
+) {
+    if walk.graph.is_none() {
+        let Some(clip) = files
+            .get(&walk.file)
+            .and_then(|file| file.named_animations.get("walk"))
+        else {
+            return;
+        };
+        let (graph, node) = AnimationGraph::from_clip(Handle::<AnimationClip>::clone(clip));
+        walk.graph = Some((graphs.add(graph), node));
+    }
+    let Some((graph, node)) = &walk.graph else {
+        return;
+    };
+    for (entity, mut player) in &mut players {
+        player.play(*node).repeat();
+        commands
+            .entity(entity)
+            .insert(AnimationGraphHandle(graph.clone()));
+    }
+}
+
+/// Moves each character along its motion and plays its walk at the matching speed.
+fn drive(
+    mut characters: Query<(Entity, &mut CharacterController, &mut Transform), With<GltfCharacter>>,
+    children: Query<&Children>,
+    mut players: Query<&mut AnimationPlayer>,
+    time: Res<Time>,
+) {
+    for (entity, mut controller, mut transform) in &mut characters {
+        let Some(player) = children
+            .iter_descendants(entity)
+            .find(|&e| players.contains(e))
+        else {
+            // The scene has not spawned yet: the character waits.
+            continue;
+        };
+        let speed = controller.advance(time.delta_secs(), &mut transform);
+        if let Ok(mut player) = players.get_mut(player) {
+            for (_, animation) in player.playing_animations_mut() {
+                animation.set_speed(speed);
+            }
+        }
+    }
+}

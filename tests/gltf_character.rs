@@ -1,0 +1,292 @@
+//! A glTF character: the humanoid written as a `.glb` (`drape_scenes::gltf_export`), loaded as
+//! a scene and animated by Bevy's `AnimationPlayer`, wearing the poncho through
+//! `BoneColliders` attached to its joints by name.
+//!
+//! - The file in `assets/` is what the generator writes.
+//! - The loaded joints follow the crate's own forward kinematics of the walk clip at the
+//!   player's time, between the file's samples too (a converged reference: the file samples
+//!   the clip at 60 Hz), at every fixed step of frames three steps long
+//!   (`FixedStepAnimation`); without it they stand still in two steps of three.
+//! - The poncho drapes on the character while it walks through the world: no particle deeper
+//!   in a proxy than the margin, finite, the centroid over the chest.
+
+use std::time::{Duration, Instant};
+
+use bevy::animation::AnimationPlayer;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_drape::cloth::plugin::ClothSimulation;
+use bevy_drape::collide::SolverShape;
+use bevy_drape::prelude::*;
+use bevy_drape::skeleton::rig::{Pose, PoseRate};
+use drape_scenes::gltf_character::{GltfCharacter, GltfCharacterScene, headless_app};
+use drape_scenes::poncho::{CharacterController, CharacterMotion, Poncho};
+
+#[test]
+fn the_character_file_is_what_the_generator_writes() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/characters/humanoid.glb"
+    );
+    let file = std::fs::read(path).unwrap();
+    assert!(
+        file == drape_scenes::gltf_export::humanoid_glb(),
+        "assets/characters/humanoid.glb is stale: run `cargo run --example generate_character`"
+    );
+}
+
+/// Updates with time standing still until the scene has spawned, its walk is playing and the
+/// poncho's mesh has loaded.
+fn wait_for_the_scene(app: &mut App) {
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        app.update();
+        let world = app.world_mut();
+        let playing = world
+            .query::<&AnimationPlayer>()
+            .iter(world)
+            .any(|p| p.playing_animations().next().is_some());
+        let meshes: Vec<AssetId<Mesh>> = world
+            .query_filtered::<&Mesh3d, With<Poncho>>()
+            .iter(world)
+            .map(|m| m.0.id())
+            .collect();
+        let loaded = !meshes.is_empty()
+            && meshes
+                .iter()
+                .all(|&id| world.resource::<Assets<Mesh>>().get(id).is_some());
+        if playing && loaded {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the character did not load");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+}
+
+/// The world transform of the first entity named `name`.
+fn joint(world: &mut World, name: &str) -> GlobalTransform {
+    let mut q = world.query::<(&Name, &GlobalTransform)>();
+    q.iter(world)
+        .find(|(n, _)| n.as_str() == name)
+        .map(|(_, g)| *g)
+        .unwrap_or_else(|| panic!("no joint {name}"))
+}
+
+/// The walk's time and every bone's world transform, at each fixed step, as the cloth's
+/// colliders see them (after the animation set, before the colliders are read).
+#[derive(Resource, Default)]
+struct Recorded(Vec<(f32, Vec<GlobalTransform>)>);
+
+fn record_joints(
+    players: Query<&AnimationPlayer>,
+    names: Query<(Entity, &Name)>,
+    transforms: bevy::transform::helper::TransformHelper,
+    mut recorded: ResMut<Recorded>,
+) {
+    let Some(time) = players
+        .iter()
+        .find_map(|p| p.playing_animations().next().map(|(_, a)| a.seek_time()))
+    else {
+        return;
+    };
+    let rig = humanoid();
+    let mut joints = Vec::new();
+    for bone in rig
+        .bones()
+        .iter()
+        .map(|b| b.name.as_str())
+        .chain(["character"])
+    {
+        let Some((entity, _)) = names.iter().find(|(_, n)| n.as_str() == bone) else {
+            return;
+        };
+        joints.push(transforms.compute_global_transform(entity).unwrap());
+    }
+    recorded.0.push((time, joints));
+}
+
+/// Plays the walk at `speed` with three fixed steps per update (a slow machine's frames),
+/// with or without `FixedStepAnimation` on the character, and records each fixed step.
+fn walk_in_slow_frames(fixed_step: bool, speed: f32) -> Vec<(f32, Vec<GlobalTransform>)> {
+    let mut app = headless_app(GltfCharacterScene {
+        motion: CharacterMotion::InPlace,
+        ..default()
+    });
+    app.init_resource::<Recorded>().add_systems(
+        FixedPostUpdate,
+        record_joints
+            .after(DrapeSystems::Animate)
+            .before(DrapeSystems::Colliders),
+    );
+    wait_for_the_scene(&mut app);
+    let world = app.world_mut();
+    let character = world
+        .query_filtered::<Entity, With<GltfCharacter>>()
+        .single(world)
+        .unwrap();
+    // No controller: the test sets the walk's speed.
+    world.entity_mut(character).remove::<CharacterController>();
+    if !fixed_step {
+        world.entity_mut(character).remove::<FixedStepAnimation>();
+    }
+    for mut player in world.query::<&mut AnimationPlayer>().iter_mut(world) {
+        for (_, animation) in player.playing_animations_mut() {
+            animation.set_speed(speed);
+        }
+    }
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        3.0 / 60.0,
+    )));
+    app.update();
+    app.world_mut().resource_mut::<Recorded>().0.clear();
+    for _ in 0..60 {
+        app.update();
+    }
+    std::mem::take(&mut app.world_mut().resource_mut::<Recorded>().0)
+}
+
+#[test]
+fn the_loaded_joints_follow_the_rigs_forward_kinematics_at_every_fixed_step() {
+    let rig = humanoid();
+    let desc = ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap();
+    let clip = Clip::new(&desc, &rig).unwrap();
+    let mut pose = Pose {
+        angles: vec![0.0; rig.bones().len()],
+        ..default()
+    };
+    let (mut rate, mut states) = (PoseRate::default(), Vec::new());
+    // At 0.73 of its speed the walk's times fall between the file's 60 Hz samples.
+    let speed = 0.73;
+    let steps = walk_in_slow_frames(true, speed);
+    assert_eq!(steps.len(), 180, "three fixed steps per update");
+    let (mut worst_distance, mut worst_angle) = (0.0f32, 0.0f32);
+    for (k, (time, joints)) in steps.iter().enumerate() {
+        clip.sample(*time, &mut pose, &mut rate);
+        rig.forward(&pose, None, &mut states);
+        let root = joints[rig.bones().len()];
+        for (b, got) in joints[..rig.bones().len()].iter().enumerate() {
+            let want = root.mul_transform(
+                Transform::from_translation(states[b].translation)
+                    .with_rotation(states[b].rotation),
+            );
+            worst_distance = worst_distance.max(got.translation().distance(want.translation()));
+            worst_angle = worst_angle.max(got.rotation().angle_between(want.rotation()));
+        }
+        // The walk moved by the fixed step at every step, wrapping at the clip's end.
+        if k > 0 {
+            let advanced = (time - steps[k - 1].0).rem_euclid(clip.duration());
+            assert!(
+                (advanced - speed / 60.0).abs() < 1e-4,
+                "step {k}: the walk advanced {advanced} s"
+            );
+        }
+    }
+    eprintln!(
+        "joints against the rig: {worst_distance} m, {} degrees at worst",
+        worst_angle.to_degrees()
+    );
+    assert!(steps.iter().any(|s| s.0 < 0.1) && steps.iter().any(|s| s.0 > 0.9));
+    assert!(
+        worst_distance < 2e-3,
+        "a joint was {worst_distance} m from the rig's"
+    );
+    assert!(
+        worst_angle < 0.25f32.to_radians(),
+        "a joint turned {} degrees from the rig's",
+        worst_angle.to_degrees()
+    );
+}
+
+#[test]
+fn without_fixed_step_animation_the_joints_stand_still_in_most_fixed_steps() {
+    // Bevy's own schedule: the pose changes once per rendered frame, in one fixed step of
+    // three; with `FixedStepAnimation` the left hand moves in every step.
+    let hand = humanoid().find("hand_l").unwrap();
+    let still = |steps: &[(f32, Vec<GlobalTransform>)]| {
+        steps
+            .windows(2)
+            .filter(|w| w[0].1[hand].translation() == w[1].1[hand].translation())
+            .count()
+    };
+    let fixed = walk_in_slow_frames(true, 1.0);
+    let per_frame = walk_in_slow_frames(false, 1.0);
+    assert_eq!(still(&fixed), 0);
+    assert!(
+        still(&per_frame) >= per_frame.len() / 2,
+        "{} of {} steps still",
+        still(&per_frame),
+        per_frame.len()
+    );
+}
+
+#[test]
+fn the_poncho_drapes_on_the_gltf_character_walking_through_the_world() {
+    let mut app = headless_app(GltfCharacterScene::default());
+    wait_for_the_scene(&mut app);
+    let margin = BoneColliders::humanoid().margin;
+    let proxies = BoneColliders::humanoid().proxies.len();
+    let start = Vec3::ZERO;
+    let (mut deepest, mut worst_offset, mut travelled, mut steps) = (0.0f32, 0.0f32, 0.0f32, 0);
+    for step in 0..600 {
+        app.update();
+        let world = app.world_mut();
+        let attached = world.query::<&BoneProxyOf>().iter(world).count();
+        if step > 0 {
+            assert_eq!(attached, proxies, "every proxy is on its joint");
+        }
+        let chest = joint(world, "chest").translation();
+        let character = world
+            .query_filtered::<&Transform, With<GltfCharacter>>()
+            .single(world)
+            .unwrap()
+            .translation;
+        travelled = travelled.max(character.distance(start));
+        let mut q = world.query_filtered::<&ClothSimulation, With<Poncho>>();
+        let Ok(simulation) = q.single(world) else {
+            continue;
+        };
+        let sim = simulation.solver();
+        let x = &sim.state().positions;
+        if x.is_empty() {
+            continue;
+        }
+        assert!(sim.is_finite(), "step {step}: a position went non-finite");
+        assert!(!simulation.is_frozen(), "step {step}: the poncho froze");
+        for c in sim.colliders() {
+            if matches!(c.shape, SolverShape::Plane) {
+                continue;
+            }
+            for &p in x {
+                if let Some(d) = c.signed_distance(p, 0.0) {
+                    deepest = deepest.max(-d);
+                }
+            }
+        }
+        if step >= 120 {
+            let centroid =
+                Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32;
+            worst_offset = worst_offset.max((centroid - chest).with_y(0.0).length());
+            // Resting on the shoulders, not fallen to the ground.
+            assert!(centroid.y > 0.9, "step {step}: the poncho is at {centroid}");
+        }
+        steps += 1;
+    }
+    eprintln!(
+        "{steps} steps: deepest {deepest} m, centroid at most {worst_offset} m from the chest, \
+         walked {travelled} m"
+    );
+    assert!(steps > 590, "the poncho was built: {steps} steps");
+    assert!(travelled > 3.0, "the character walked {travelled} m");
+    assert!(
+        deepest <= margin,
+        "a particle was {deepest} m inside a proxy (margin {margin})"
+    );
+    assert!(
+        worst_offset < 0.3,
+        "the centroid went {worst_offset} m from the chest"
+    );
+}
