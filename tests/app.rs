@@ -925,3 +925,87 @@ fn settings_and_components_are_reflected_so_an_inspector_can_edit_them() {
         13
     );
 }
+
+#[test]
+fn bone_colliders_attach_by_name_to_any_hierarchy_once_it_is_there() {
+    // A hierarchy of the game's own (as a glTF scene spawns it, some frames late): the root
+    // with `BoneColliders` first, the joints after. A name found twice takes the shallower
+    // joint; a proxy on a joint the hierarchy does not have is skipped.
+    let mut app = app();
+    let mut colliders = BoneColliders::humanoid();
+    colliders
+        .proxies
+        .retain(|p| p.bone == "pelvis" || p.bone == "spine");
+    let mut tail = colliders.proxies[0].clone();
+    tail.bone = "tail".into();
+    colliders.proxies.push(tail);
+    let root = app
+        .world_mut()
+        .spawn((colliders.clone(), Transform::default()))
+        .id();
+    let proxies_of = |app: &mut App| {
+        let world = app.world_mut();
+        let mut found: Vec<(String, Entity, f32)> = world
+            .query::<(&Name, &ClothCollider, &BoneProxyOf, &ChildOf)>()
+            .iter(world)
+            .filter(|(_, _, of, _)| of.0 == root)
+            .map(|(name, c, _, parent)| {
+                let radius = match c.shape {
+                    ColliderShape::Capsule { radius, .. } => radius,
+                    _ => panic!("proxies are capsules"),
+                };
+                (name.to_string(), parent.parent(), radius)
+            })
+            .collect();
+        found.sort_by(|a, b| a.0.cmp(&b.0));
+        found
+    };
+    for _ in 0..3 {
+        app.update();
+    }
+    assert!(proxies_of(&mut app).is_empty(), "nothing to attach to yet");
+    let world = app.world_mut();
+    let pelvis = world
+        .spawn((Name::new("pelvis"), Transform::default(), ChildOf(root)))
+        .id();
+    let spine = world
+        .spawn((Name::new("spine"), Transform::default(), ChildOf(pelvis)))
+        .id();
+    world.spawn((Name::new("pelvis"), Transform::default(), ChildOf(spine)));
+    app.update();
+    app.update();
+    let found = proxies_of(&mut app);
+    let pelvis_proxies = colliders
+        .proxies
+        .iter()
+        .filter(|p| p.bone == "pelvis")
+        .count();
+    assert_eq!(found.len(), colliders.proxies.len() - 1, "{found:?}");
+    assert!(
+        found
+            .iter()
+            .filter(|f| f.0 == "pelvis proxy")
+            .all(|f| f.1 == pelvis)
+    );
+    assert_eq!(
+        found.iter().filter(|f| f.1 == pelvis).count(),
+        pelvis_proxies
+    );
+    assert!(
+        found
+            .iter()
+            .filter(|f| f.0 == "spine proxy")
+            .all(|f| f.1 == spine)
+    );
+    // An edit (an inspector's, a file's): the proxies are spawned again from it, once.
+    app.world_mut()
+        .get_mut::<BoneColliders>(root)
+        .unwrap()
+        .proxies[0]
+        .radius = 0.25;
+    app.update();
+    app.update();
+    let again = proxies_of(&mut app);
+    assert_eq!(again.len(), found.len());
+    assert_eq!(again.iter().filter(|f| f.2 == 0.25).count(), 1);
+}

@@ -99,7 +99,7 @@ fn record_joints(
         .bones()
         .iter()
         .map(|b| b.name.as_str())
-        .chain(["character"])
+        .chain(["humanoid"])
     {
         let Some((entity, _)) = names.iter().find(|(_, n)| n.as_str() == bone) else {
             return;
@@ -289,4 +289,108 @@ fn the_poncho_drapes_on_the_gltf_character_walking_through_the_world() {
         worst_offset < 0.3,
         "the centroid went {worst_offset} m from the chest"
     );
+}
+
+#[test]
+fn several_gltf_characters_keep_their_ponchos_when_they_teleport() {
+    // Three characters side by side, each jumping 10 m and turning a quarter every 3 s after
+    // the first 2 s: each poncho goes with its own character.
+    let mut app = headless_app(GltfCharacterScene {
+        motion: CharacterMotion::Teleport,
+        characters: 3,
+        ..default()
+    });
+    wait_for_the_scene(&mut app);
+    let margin = BoneColliders::humanoid().margin;
+    let proxies = BoneColliders::humanoid().proxies.len();
+    let (mut deepest, mut worst_offset, mut jumps) = (0.0f32, 0.0f32, 0);
+    let mut last_positions: Vec<Vec3> = Vec::new();
+    for step in 0..600 {
+        app.update();
+        let world = app.world_mut();
+        let characters: Vec<(Entity, Vec3)> = world
+            .query_filtered::<(Entity, &Transform), With<GltfCharacter>>()
+            .iter(world)
+            .map(|(e, t)| (e, t.translation))
+            .collect();
+        assert_eq!(characters.len(), 3);
+        if !last_positions.is_empty() {
+            jumps += characters
+                .iter()
+                .zip(&last_positions)
+                .filter(|((_, now), before)| now.distance(**before) > 5.0)
+                .count();
+        }
+        last_positions = characters.iter().map(|c| c.1).collect();
+        let mut ponchos = world.query_filtered::<(&Cloth, &ClothSimulation), With<Poncho>>();
+        let ponchos: Vec<(Entity, Vec<bevy::math::Vec3A>, bool, Vec<f32>)> = ponchos
+            .iter(world)
+            .map(|(cloth, simulation)| {
+                let sim = simulation.solver();
+                let depths = sim
+                    .colliders()
+                    .iter()
+                    .filter(|c| !matches!(c.shape, SolverShape::Plane))
+                    .flat_map(|c| {
+                        sim.state()
+                            .positions
+                            .iter()
+                            .filter_map(|&p| c.signed_distance(p, 0.0))
+                    })
+                    .collect();
+                (
+                    cloth.follow.unwrap(),
+                    sim.state().positions.clone(),
+                    sim.is_finite(),
+                    depths,
+                )
+            })
+            .collect();
+        if ponchos.len() < 3 || ponchos.iter().any(|p| p.1.is_empty()) {
+            continue;
+        }
+        for (character, x, finite, depths) in &ponchos {
+            assert!(*finite, "step {step}: a poncho went non-finite");
+            deepest = depths.iter().fold(deepest, |d, &s| d.max(-s));
+            let attached = world
+                .query::<&BoneProxyOf>()
+                .iter(world)
+                .filter(|of| of.0 == *character)
+                .count();
+            assert_eq!(attached, proxies, "each character has its own proxies");
+            if step >= 120 {
+                let chest = chest_of(world, *character);
+                let centroid =
+                    Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32;
+                worst_offset = worst_offset.max((centroid - chest).with_y(0.0).length());
+            }
+        }
+    }
+    eprintln!(
+        "{jumps} jumps: deepest {deepest} m, a centroid at most {worst_offset} m from its chest"
+    );
+    assert!(jumps >= 6, "each character jumped twice: {jumps} jumps");
+    assert!(
+        deepest <= margin,
+        "a particle was {deepest} m inside a proxy"
+    );
+    assert!(
+        worst_offset < 0.3,
+        "a centroid went {worst_offset} m from its character's chest"
+    );
+}
+
+/// The world position of the joint named `chest` under `character`.
+fn chest_of(world: &mut World, character: Entity) -> Vec3 {
+    let mut children = world.query::<&Children>();
+    let mut queue = vec![character];
+    while let Some(e) = queue.pop() {
+        if world.get::<Name>(e).is_some_and(|n| n.as_str() == "chest") {
+            return world.get::<GlobalTransform>(e).unwrap().translation();
+        }
+        if let Ok(c) = children.get(world, e) {
+            queue.extend(c.iter());
+        }
+    }
+    panic!("character {character} has no chest")
 }

@@ -32,6 +32,8 @@ pub struct GltfCharacterScene {
     pub motion: CharacterMotion,
     /// Where the poncho starts above the character's root, metres.
     pub start_height: f32,
+    /// How many characters, each in its poncho, side by side 2.5 m apart along x.
+    pub characters: usize,
 }
 
 impl Default for GltfCharacterScene {
@@ -39,6 +41,7 @@ impl Default for GltfCharacterScene {
         Self {
             motion: CharacterMotion::Walk,
             start_height: 1.5,
+            characters: 1,
         }
     }
 }
@@ -114,16 +117,18 @@ fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>, server: Res<Ass
             .ok()
             .and_then(|desc| Clip::new(&desc, &rig).ok())
             .and_then(|clip| clip.stance_speed(&rig, &feet, Vec3::Z));
-    commands.spawn((
-        Name::new("character"),
-        GltfCharacter,
-        WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset(CHARACTER_FILE))),
-        BoneColliders::humanoid(),
-        // Its animation stepped with the cloth, not once per rendered frame.
-        FixedStepAnimation,
-        controller,
-        Transform::default(),
-    ));
+    for k in 0..scene.characters {
+        commands.spawn((
+            Name::new(format!("character {k}")),
+            GltfCharacter,
+            WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset(CHARACTER_FILE))),
+            BoneColliders::humanoid(),
+            // Its animation stepped with the cloth, not once per rendered frame.
+            FixedStepAnimation,
+            controller.clone(),
+            Transform::from_xyz(2.5 * k as f32, 0.0, 0.0),
+        ));
+    }
     commands.insert_resource(Walk {
         file: server.load(CHARACTER_FILE),
         graph: None,

@@ -56,7 +56,7 @@ pub fn export_glb(rig: &Rig, parts: &[BoneProxy], clips: &[(&str, &Clip)], hz: f
     let mut file = GlbBuilder::default();
     let bones = rig.bones();
     let n = bones.len();
-    // Node 0 is the character, nodes 1..=n the bones, node n + 1 the body.
+    // Node 0 is the character (named `humanoid`), nodes 1..=n the bones, node n + 1 the body.
     // The rest (bind) pose: every hinge at 0, the root where the first clip starts, so the
     // model stands on the ground before it is animated.
     let mut rest_pose = rig.rest_pose();
@@ -67,7 +67,7 @@ pub fn export_glb(rig: &Rig, parts: &[BoneProxy], clips: &[(&str, &Clip)], hz: f
     }
     let mut rest = Vec::new();
     rig.forward(&rest_pose, None, &mut rest);
-    let mut nodes = vec![json!({ "name": "character", "children": [1, n + 1] })];
+    let mut nodes = vec![json!({ "name": "humanoid", "children": [1, n + 1] })];
     for (b, bone) in bones.iter().enumerate() {
         let children: Vec<usize> = (0..n)
             .filter(|&c| bones[c].parent == Some(b))
@@ -205,7 +205,7 @@ pub fn export_glb(rig: &Rig, parts: &[BoneProxy], clips: &[(&str, &Clip)], hz: f
     let document = json!({
         "asset": { "version": "2.0", "generator": "bevy_drape generate_character" },
         "scene": 0,
-        "scenes": [{ "name": "character", "nodes": [0] }],
+        "scenes": [{ "name": "humanoid", "nodes": [0] }],
         "nodes": nodes,
         "meshes": [{
             "name": "body",
