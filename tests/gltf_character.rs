@@ -224,6 +224,69 @@ fn without_fixed_step_animation_the_joints_stand_still_in_most_fixed_steps() {
 }
 
 #[test]
+fn between_fixed_steps_the_character_is_drawn_at_the_frames_time() {
+    // Frames half a fixed step long (a 120 Hz display): the walk is drawn between its last two
+    // fixed steps, as the cloth is, so its time moves half a step every frame instead of a
+    // whole step every other frame, and the drawn joints are the rig's at that time.
+    let mut app = headless_app(GltfCharacterScene {
+        motion: CharacterMotion::InPlace,
+        ..default()
+    });
+    wait_for_the_scene(&mut app);
+    let world = app.world_mut();
+    let character = world
+        .query_filtered::<Entity, With<GltfCharacter>>()
+        .single(world)
+        .unwrap();
+    world.entity_mut(character).remove::<CharacterController>();
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        0.5 / 60.0,
+    )));
+    for _ in 0..3 {
+        app.update();
+    }
+    let rig = humanoid();
+    let desc = ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap();
+    let clip = Clip::new(&desc, &rig).unwrap();
+    let mut pose = Pose {
+        angles: vec![0.0; rig.bones().len()],
+        ..default()
+    };
+    let (mut rate, mut states) = (PoseRate::default(), Vec::new());
+    let mut times: Vec<f32> = Vec::new();
+    let mut worst_distance = 0.0f32;
+    for _ in 0..120 {
+        app.update();
+        let world = app.world_mut();
+        let time = world
+            .query::<&AnimationPlayer>()
+            .iter(world)
+            .find_map(|p| p.playing_animations().next().map(|(_, a)| a.seek_time()))
+            .unwrap();
+        clip.sample(time, &mut pose, &mut rate);
+        rig.forward(&pose, None, &mut states);
+        let root = joint(world, "humanoid");
+        for (b, bone) in rig.bones().iter().enumerate() {
+            let want = root.transform_point(states[b].translation);
+            worst_distance =
+                worst_distance.max(joint(world, &bone.name).translation().distance(want));
+        }
+        times.push(time);
+    }
+    for pair in times.windows(2) {
+        let advanced = (pair[1] - pair[0]).rem_euclid(clip.duration());
+        assert!(
+            (advanced - 0.5 / 60.0).abs() < 1e-4,
+            "the walk moved {advanced} s in a frame of half a step"
+        );
+    }
+    assert!(
+        worst_distance < 2e-3,
+        "a drawn joint was {worst_distance} m from the rig's at its time"
+    );
+}
+
+#[test]
 fn the_poncho_drapes_on_the_gltf_character_walking_through_the_world() {
     let mut app = headless_app(GltfCharacterScene::default());
     wait_for_the_scene(&mut app);

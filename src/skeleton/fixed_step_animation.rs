@@ -7,14 +7,19 @@
 //! breaks). With [`FixedStepAnimation`] on a character's root (a glTF scene's entity), every
 //! animation player at or below it is advanced by the fixed step's time and applied to its
 //! joints in [`DrapeSystems::Animate`], before the
-//! colliders are read; in `PostUpdate` Bevy's own advance leaves these players' times alone
-//! (their pose is drawn as the last fixed step left it).
+//! colliders are read. In `PostUpdate` Bevy's own advance is undone for these players and
+//! they are drawn between their last two fixed steps, at the fixed clock's overstep fraction,
+//! as the cloth is (evaluated at that time, not blended), so body and cloth move together at
+//! any frame rate.
 //!
 //! A playing animation keeps its speed and pause state; a repeating one wraps at its clip's
-//! end, one that does not repeat holds its last pose. Transitions and animation events are
-//! still Bevy's, once per frame.
+//! end, one that does not repeat holds its last pose; a time set by the game (`seek_to`)
+//! between fixed steps is taken up. Transitions and animation events are still Bevy's, once
+//! per frame.
 
-use bevy::animation::graph::{AnimationGraph, AnimationGraphHandle, AnimationNodeType};
+use bevy::animation::graph::{
+    AnimationGraph, AnimationGraphHandle, AnimationNodeIndex, AnimationNodeType,
+};
 use bevy::animation::{
     AnimationClip, AnimationPlayer, RepeatAnimation, advance_animations, animate_targets,
 };
@@ -28,11 +33,37 @@ use crate::schedule::{DrapeSchedule, DrapeSystems};
 #[reflect(Component)]
 pub struct FixedStepAnimation;
 
-/// An animation player stepped in the fixed schedule, with its animations' times as the last
-/// fixed step left them.
+/// An animation player stepped in the fixed schedule, with its animations' times.
 #[derive(Component, Clone, Debug, Default)]
 pub(crate) struct FixedStepPlayer {
-    times: Vec<(bevy::animation::graph::AnimationNodeIndex, f32)>,
+    animations: Vec<FixedStepTime>,
+}
+
+/// One animation's clock in the fixed schedule.
+#[derive(Clone, Copy, Debug)]
+struct FixedStepTime {
+    node: AnimationNodeIndex,
+    /// The time at the last fixed step.
+    time: f32,
+    /// How far the last fixed step moved it (speed times the step).
+    advance: f32,
+    /// The clip's length and whether it repeats, for wrapping.
+    duration: f32,
+    repeats: bool,
+    /// The time it was last drawn at (set in `PostUpdate`); another time found there was set
+    /// by the game.
+    drawn: f32,
+}
+
+impl FixedStepTime {
+    /// `t` wrapped into the clip (repeating) or held at its ends.
+    fn wrap(&self, t: f32) -> f32 {
+        match (self.repeats, self.duration > 0.0) {
+            (true, true) => t.rem_euclid(self.duration),
+            (true, false) => 0.0,
+            (false, _) => t.clamp(0.0, self.duration.max(0.0)),
+        }
+    }
 }
 
 /// Steps the animation players under [`FixedStepAnimation`] with the cloth; needs Bevy's
@@ -88,60 +119,96 @@ fn find_fixed_step_players(
     }
 }
 
-/// Advances every playing, unpaused animation of the marked players by the fixed step.
+/// Advances every playing, unpaused animation of the marked players by the fixed step, from
+/// its time at the last fixed step.
 fn advance_fixed_step_players(
     time: Res<Time>,
     clips: Res<Assets<AnimationClip>>,
     graphs: Res<Assets<AnimationGraph>>,
-    mut players: Query<(&mut AnimationPlayer, &AnimationGraphHandle), With<FixedStepPlayer>>,
+    mut players: Query<(
+        &mut AnimationPlayer,
+        &AnimationGraphHandle,
+        &mut FixedStepPlayer,
+    )>,
 ) {
     let dt = time.delta_secs();
-    for (mut player, graph) in &mut players {
+    for (mut player, graph, mut fixed) in &mut players {
         let Some(graph) = graphs.get(graph) else {
             continue;
         };
+        let fixed = &mut *fixed;
         for (node, animation) in player.playing_animations_mut() {
-            if animation.is_paused() || animation.is_finished() {
-                continue;
-            }
             let Some(AnimationNodeType::Clip(clip)) = graph.get(*node).map(|n| &n.node_type) else {
                 continue;
             };
             let Some(duration) = clips.get(clip).map(AnimationClip::duration) else {
                 continue;
             };
-            let t = animation.seek_time() + dt * animation.speed();
-            let t = match animation.repeat_mode() {
-                RepeatAnimation::Never => t.clamp(0.0, duration),
-                _ if duration > 0.0 => t.rem_euclid(duration),
-                _ => 0.0,
+            let at = fixed.animations.iter().position(|a| a.node == *node);
+            // From the last fixed step's time, unless the game set another since it was drawn.
+            let start = at
+                .map(|k| fixed.animations[k])
+                .filter(|clock| clock.drawn == animation.seek_time())
+                .map_or(animation.seek_time(), |clock| clock.time);
+            let moving = !animation.is_paused() && !animation.is_finished();
+            let advance = if moving { dt * animation.speed() } else { 0.0 };
+            let mut clock = FixedStepTime {
+                node: *node,
+                time: start,
+                advance,
+                duration,
+                repeats: animation.repeat_mode() != RepeatAnimation::Never,
+                drawn: start,
             };
-            if t.is_finite() {
-                animation.seek_to(t);
+            let t = clock.wrap(start + advance);
+            if !t.is_finite() {
+                continue;
+            }
+            clock.time = t;
+            clock.drawn = t;
+            animation.seek_to(t);
+            match at {
+                Some(k) => fixed.animations[k] = clock,
+                None => fixed.animations.push(clock),
             }
         }
     }
 }
 
-/// Before Bevy advances animations in `PostUpdate`: the marked players' times.
+/// Before Bevy advances animations in `PostUpdate`: a time the game set since the last frame
+/// becomes the animation's fixed-step time; animations no longer playing are forgotten.
 fn remember_fixed_step_times(mut players: Query<(&AnimationPlayer, &mut FixedStepPlayer)>) {
-    for (player, mut remembered) in &mut players {
-        remembered.times.clear();
-        remembered.times.extend(
-            player
-                .playing_animations()
-                .map(|(node, animation)| (*node, animation.seek_time())),
-        );
+    for (player, mut fixed) in &mut players {
+        fixed
+            .animations
+            .retain(|a| player.animation(a.node).is_some());
+        for clock in &mut fixed.animations {
+            if let Some(animation) = player.animation(clock.node)
+                && animation.seek_time() != clock.drawn
+            {
+                clock.time = animation.seek_time();
+                clock.advance = 0.0;
+            }
+        }
     }
 }
 
-/// After Bevy's advance: the marked players' times put back, so they move with the fixed
-/// step only.
-fn restore_fixed_step_times(mut players: Query<(&mut AnimationPlayer, &FixedStepPlayer)>) {
-    for (mut player, remembered) in &mut players {
-        for &(node, time) in &remembered.times {
-            if let Some(animation) = player.animation_mut(node) {
-                animation.seek_to(time);
+/// After Bevy's advance: the marked players' times set between their last two fixed steps at
+/// the fixed clock's overstep fraction, so they move with the fixed step only and are drawn
+/// where the cloth is.
+fn restore_fixed_step_times(
+    fixed_time: Res<Time<Fixed>>,
+    mut players: Query<(&mut AnimationPlayer, &mut FixedStepPlayer)>,
+) {
+    let behind = 1.0 - fixed_time.overstep_fraction().clamp(0.0, 1.0);
+    for (mut player, mut fixed) in &mut players {
+        for clock in &mut fixed.animations {
+            let drawn = clock.wrap(clock.time - behind * clock.advance);
+            if let Some(animation) = player.animation_mut(clock.node)
+                && drawn.is_finite()
+            {
+                animation.seek_to(drawn);
+                clock.drawn = drawn;
             }
         }
     }
