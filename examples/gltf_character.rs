@@ -19,9 +19,9 @@ use bevy::prelude::*;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, dress_ponchos, follow_with_camera, spawn_stage};
+use common::{ExamplePlugin, dress_ponchos, follow_with_camera, spawn_stage, switch_motion};
 use drape_scenes::gltf_character::{GltfCharacter, GltfCharacterPlugin, GltfCharacterScene};
-use drape_scenes::poncho::{CharacterController, CharacterMotion, Poncho};
+use drape_scenes::poncho::{CharacterMotion, Poncho};
 
 fn main() {
     if let Err(reason) = find_graphics_adapter() {
@@ -48,7 +48,12 @@ fn main() {
         .add_systems(Startup, setup)
         .add_systems(
             Update,
-            (dress_ponchos, keys, follow_with_camera::<GltfCharacter>),
+            (
+                dress_ponchos,
+                keys,
+                switch_motion,
+                follow_with_camera::<GltfCharacter>,
+            ),
         )
         .run();
 }
@@ -94,25 +99,7 @@ fn setup(
     );
 }
 
-fn keys(
-    input: Res<ButtonInput<KeyCode>>,
-    mut controllers: Query<&mut CharacterController>,
-    mut ponchos: Query<&mut ClothSimulation, With<Poncho>>,
-) {
-    let motion_keys = [
-        KeyCode::Digit1,
-        KeyCode::Digit2,
-        KeyCode::Digit3,
-        KeyCode::Digit4,
-        KeyCode::Digit5,
-    ];
-    for (key, motion) in motion_keys.into_iter().zip(CharacterMotion::ALL) {
-        if input.just_pressed(key) {
-            for mut controller in &mut controllers {
-                controller.switch_to(motion);
-            }
-        }
-    }
+fn keys(input: Res<ButtonInput<KeyCode>>, mut ponchos: Query<&mut ClothSimulation, With<Poncho>>) {
     if input.just_pressed(KeyCode::KeyR) {
         for mut simulation in &mut ponchos {
             simulation.reset();

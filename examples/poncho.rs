@@ -23,7 +23,9 @@ use bevy::prelude::*;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, dress_humanoids, dress_ponchos, follow_with_camera, spawn_stage};
+use common::{
+    ExamplePlugin, dress_humanoids, dress_ponchos, follow_with_camera, spawn_stage, switch_motion,
+};
 use drape_scenes::poncho::{
     Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
     run_headless,
@@ -79,6 +81,7 @@ fn main() {
                 dress_humanoids,
                 dress_ponchos,
                 keys,
+                switch_motion,
                 label,
                 follow_with_camera::<Character>,
             ),
@@ -154,7 +157,6 @@ fn keys(
     mut drape: ResMut<DrapeSettings>,
     mut scene: ResMut<PonchoScene>,
     mut ponchos: Query<(&mut ClothSimulation, &mut ClothSettings), With<Poncho>>,
-    mut controllers: Query<&mut CharacterController>,
     mut wind: ResMut<Wind>,
 ) {
     if input.just_pressed(KeyCode::KeyB) {
@@ -163,20 +165,6 @@ fn keys(
         } else {
             Wind::default()
         };
-    }
-    let motion_keys = [
-        KeyCode::Digit1,
-        KeyCode::Digit2,
-        KeyCode::Digit3,
-        KeyCode::Digit4,
-        KeyCode::Digit5,
-    ];
-    for (key, motion) in motion_keys.into_iter().zip(CharacterMotion::ALL) {
-        if input.just_pressed(key) {
-            for mut controller in &mut controllers {
-                controller.switch_to(motion);
-            }
-        }
     }
     if input.just_pressed(KeyCode::KeyP) {
         drape.paused = !drape.paused;

@@ -76,6 +76,42 @@ fn joint(world: &mut World, name: &str) -> GlobalTransform {
         .unwrap_or_else(|| panic!("no joint {name}"))
 }
 
+/// The rig's own forward kinematics of the walk clip, the reference the loaded joints are
+/// checked against.
+struct WalkReference {
+    rig: Rig,
+    clip: Clip,
+    pose: Pose,
+    rate: PoseRate,
+    states: Vec<bevy_drape::skeleton::rig::BoneState>,
+}
+
+impl WalkReference {
+    fn new() -> Self {
+        let rig = humanoid();
+        let desc = ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap();
+        let clip = Clip::new(&desc, &rig).unwrap();
+        let pose = Pose {
+            angles: vec![0.0; rig.bones().len()],
+            ..default()
+        };
+        Self {
+            rig,
+            clip,
+            pose,
+            rate: PoseRate::default(),
+            states: Vec::new(),
+        }
+    }
+
+    /// Every bone's transform in the character's frame at time `t` of the walk.
+    fn bones_at(&mut self, t: f32) -> Vec<bevy_drape::skeleton::rig::BoneState> {
+        self.clip.sample(t, &mut self.pose, &mut self.rate);
+        self.rig.forward(&self.pose, None, &mut self.states);
+        self.states.clone()
+    }
+}
+
 /// The walk's time and every bone's world transform, at each fixed step, as the cloth's
 /// colliders see them (after the animation set, before the colliders are read).
 #[derive(Resource, Default)]
@@ -151,22 +187,15 @@ fn walk_in_slow_frames(fixed_step: bool, speed: f32) -> Vec<(f32, Vec<GlobalTran
 
 #[test]
 fn the_loaded_joints_follow_the_rigs_forward_kinematics_at_every_fixed_step() {
-    let rig = humanoid();
-    let desc = ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap();
-    let clip = Clip::new(&desc, &rig).unwrap();
-    let mut pose = Pose {
-        angles: vec![0.0; rig.bones().len()],
-        ..default()
-    };
-    let (mut rate, mut states) = (PoseRate::default(), Vec::new());
+    let mut walk = WalkReference::new();
+    let (rig, clip) = (walk.rig.clone(), walk.clip.clone());
     // At 0.73 of its speed the walk's times fall between the file's 60 Hz samples.
     let speed = 0.73;
     let steps = walk_in_slow_frames(true, speed);
     assert_eq!(steps.len(), 180, "three fixed steps per update");
     let (mut worst_distance, mut worst_angle) = (0.0f32, 0.0f32);
     for (k, (time, joints)) in steps.iter().enumerate() {
-        clip.sample(*time, &mut pose, &mut rate);
-        rig.forward(&pose, None, &mut states);
+        let states = walk.bones_at(*time);
         let root = joints[rig.bones().len()];
         for (b, got) in joints[..rig.bones().len()].iter().enumerate() {
             let want = root.mul_transform(
@@ -245,14 +274,8 @@ fn between_fixed_steps_the_character_is_drawn_at_the_frames_time() {
     for _ in 0..3 {
         app.update();
     }
-    let rig = humanoid();
-    let desc = ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap();
-    let clip = Clip::new(&desc, &rig).unwrap();
-    let mut pose = Pose {
-        angles: vec![0.0; rig.bones().len()],
-        ..default()
-    };
-    let (mut rate, mut states) = (PoseRate::default(), Vec::new());
+    let mut walk = WalkReference::new();
+    let (rig, clip) = (walk.rig.clone(), walk.clip.clone());
     let mut times: Vec<f32> = Vec::new();
     let mut worst_distance = 0.0f32;
     for _ in 0..120 {
@@ -263,8 +286,7 @@ fn between_fixed_steps_the_character_is_drawn_at_the_frames_time() {
             .iter(world)
             .find_map(|p| p.playing_animations().next().map(|(_, a)| a.seek_time()))
             .unwrap();
-        clip.sample(time, &mut pose, &mut rate);
-        rig.forward(&pose, None, &mut states);
+        let states = walk.bones_at(time);
         let root = joint(world, "humanoid");
         for (b, bone) in rig.bones().iter().enumerate() {
             let want = root.transform_point(states[b].translation);

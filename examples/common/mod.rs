@@ -322,3 +322,28 @@ pub(crate) fn follow_with_camera<C: Component>(
         *transform = orbit.transform();
     }
 }
+
+/// 1 to 5 switch every character's motion (in place, walk, jog, teleport, the tour).
+#[allow(dead_code)]
+pub(crate) fn switch_motion(
+    input: Res<ButtonInput<KeyCode>>,
+    mut controllers: Query<&mut drape_scenes::poncho::CharacterController>,
+) {
+    let keys = [
+        KeyCode::Digit1,
+        KeyCode::Digit2,
+        KeyCode::Digit3,
+        KeyCode::Digit4,
+        KeyCode::Digit5,
+    ];
+    for (key, motion) in keys
+        .into_iter()
+        .zip(drape_scenes::poncho::CharacterMotion::ALL)
+    {
+        if input.just_pressed(key) {
+            for mut controller in &mut controllers {
+                controller.switch_to(motion);
+            }
+        }
+    }
+}

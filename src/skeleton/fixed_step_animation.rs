@@ -84,9 +84,12 @@ impl Plugin for FixedStepAnimationPlugin {
         app.add_systems(PreUpdate, find_fixed_step_players)
             .add_systems(
                 schedule,
+                // Bevy's `animate_targets` poses every player's targets, so it runs here only
+                // while some player is stepped with the cloth.
                 (advance_fixed_step_players, animate_targets)
                     .chain()
-                    .in_set(DrapeSystems::Animate),
+                    .in_set(DrapeSystems::Animate)
+                    .run_if(any_with_component::<FixedStepPlayer>),
             )
             .add_systems(
                 PostUpdate,

@@ -6,7 +6,8 @@
 //! - One node per bone, named after it, in the rig's hierarchy under a root node: the bone's
 //!   rest translation (its offset) and, in the clips, its rotation (the hinge's) and for the
 //!   root its translation too. Every bone is a joint of one skin.
-//! - The body: one capsule per [`BoneProxy`] (the shapes the cloth collides with) and a box per
+//! - The body ([`BodyPart`]s): one capsule per
+//!   [`BoneProxy`](bevy_drape::prelude::BoneProxy) (the shapes the cloth collides with) and a box per
 //!   foot, each vertex bound to its bone with weight 1, in the rest pose; the inverse bind
 //!   matrices are the bones' rest transforms inverted. In the rest pose every hinge is at 0
 //!   and the root is where the first clip starts.
@@ -16,8 +17,8 @@
 
 use bevy::math::{Mat4, Quat, Vec3};
 use bevy::mesh::{Indices, Mesh, MeshBuilder, VertexAttributeValues};
-use bevy::prelude::{Capsule3d, Cuboid, Meshable};
-use bevy_drape::prelude::{BoneProxy, Clip, ClipDesc, Rig, humanoid, humanoid_proxies};
+use bevy::prelude::{Capsule3d, Cuboid, Meshable, Transform};
+use bevy_drape::prelude::{Clip, ClipDesc, Rig, humanoid, humanoid_proxies};
 use bevy_drape::skeleton::rig::{BoneState, Pose, PoseRate};
 use serde_json::{Value, json};
 
@@ -37,22 +38,45 @@ pub fn humanoid_glb() -> Vec<u8> {
     };
     let walk = clip(include_str!("../../../assets/clips/walk.clip.ron"));
     let wave = clip(include_str!("../../../assets/clips/wave.clip.ron"));
-    let mut parts = humanoid_proxies();
+    // The proxies' capsules, and a box per foot (no proxy: cloth does not reach the feet).
+    let mut parts: Vec<BodyPart> = humanoid_proxies()
+        .iter()
+        .map(|proxy| BodyPart {
+            bone: proxy.bone.clone(),
+            mesh: Capsule3d::new(proxy.radius, 2.0 * proxy.half_length)
+                .mesh()
+                .longitudes(16)
+                .latitudes(8)
+                .build(),
+            placement: Transform::from_translation(proxy.centre).with_rotation(proxy.rotation()),
+        })
+        .collect();
+    let (radius, half_length) = (0.04f32, 0.07f32);
     for side in ["l", "r"] {
-        parts.push(BoneProxy {
+        parts.push(BodyPart {
             bone: format!("foot_{side}"),
-            radius: 0.04,
-            half_length: 0.07,
-            centre: Vec3::new(0.0, -0.01, 0.05),
-            axis: Vec3::Z,
+            mesh: Cuboid::new(2.0 * radius, 1.5 * radius, 2.0 * (half_length + radius))
+                .mesh()
+                .build(),
+            placement: Transform::from_xyz(0.0, -0.01, 0.05),
         });
     }
     export_glb(&rig, &parts, &[("walk", &walk), ("wave", &wave)], SAMPLE_HZ)
 }
 
-/// `rig` with a body of `parts` (a capsule each, skinned rigidly to its bone; parts naming no
-/// bone are left out) and `clips` sampled at `hz`, as a `.glb` file.
-pub fn export_glb(rig: &Rig, parts: &[BoneProxy], clips: &[(&str, &Clip)], hz: f32) -> Vec<u8> {
+/// A piece of a character's body: a mesh rigidly bound to one bone.
+pub struct BodyPart {
+    /// The bone's name.
+    pub bone: String,
+    /// The mesh, in its own frame (positions and normals are read).
+    pub mesh: Mesh,
+    /// Where the mesh sits in the bone's frame.
+    pub placement: Transform,
+}
+
+/// `rig` with a body of `parts` (each skinned rigidly to its bone; parts naming no bone are
+/// left out) and `clips` sampled at `hz`, as a `.glb` file.
+pub fn export_glb(rig: &Rig, parts: &[BodyPart], clips: &[(&str, &Clip)], hz: f32) -> Vec<u8> {
     let mut file = GlbBuilder::default();
     let bones = rig.bones();
     let n = bones.len();
@@ -92,37 +116,18 @@ pub fn export_glb(rig: &Rig, parts: &[BoneProxy], clips: &[(&str, &Clip)], hz: f
         let Some(bone) = rig.find(&part.bone) else {
             continue;
         };
-        let mesh: Mesh = if part.bone.starts_with("foot") {
-            Cuboid::new(
-                2.0 * part.radius,
-                1.5 * part.radius,
-                2.0 * (part.half_length + part.radius),
-            )
-            .mesh()
-            .build()
-        } else {
-            Capsule3d::new(part.radius, 2.0 * part.half_length)
-                .mesh()
-                .longitudes(16)
-                .latitudes(8)
-                .build()
-        };
+        let mesh = &part.mesh;
         let (Some(VertexAttributeValues::Float32x3(p)), Some(VertexAttributeValues::Float32x3(m))) = (
             mesh.attribute(Mesh::ATTRIBUTE_POSITION),
             mesh.attribute(Mesh::ATTRIBUTE_NORMAL),
         ) else {
             continue;
         };
-        // Foot boxes point along the foot, not along a capsule axis.
-        let in_bone = if part.bone.starts_with("foot") {
-            Quat::IDENTITY
-        } else {
-            part.rotation()
-        };
+        let in_bone = part.placement.rotation;
         let world = rest[bone].rotation;
         let first = positions.len() as u32;
         for (p, m) in p.iter().zip(m) {
-            let local = part.centre + in_bone * Vec3::from(*p);
+            let local = part.placement.translation + in_bone * Vec3::from(*p);
             positions.push(rest[bone].translation + world * local);
             normals.push((world * in_bone * Vec3::from(*m)).normalize_or(Vec3::Y));
             joints.push(bone as u16);
