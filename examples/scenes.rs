@@ -5,13 +5,14 @@
 //!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
-//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1]
+//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--wind 10] [--gusts 0]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
 //! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
-//! `ClothSettings::inertia`.
+//! `ClothSettings::inertia`; `--neck-radius` (or `--n`) makes the poncho from its pattern
+//! (`PonchoDesc`) instead of the shipped OBJ.
 //!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
@@ -58,6 +59,7 @@ fn run() -> Result<(), String> {
     let mut inertia = 1.0f32;
     let mut wind_speed = 10.0f32;
     let mut gusts = 0.0f32;
+    let mut neck_radius: Option<f32> = None;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
         "mass-spring"
@@ -97,6 +99,7 @@ fn run() -> Result<(), String> {
             "--inertia" => inertia = parse(&value()?)?,
             "--wind" => wind_speed = parse(&value()?)?,
             "--gusts" => gusts = parse(&value()?)?,
+            "--neck-radius" => neck_radius = Some(parse(&value()?)?),
             "--no-air" => settings.air = None,
             other => return Err(format!("unknown option {other}")),
         }
@@ -207,10 +210,12 @@ fn run() -> Result<(), String> {
                 inertia,
                 ..PonchoScene::default()
             };
-            if n_given {
+            if n_given || neck_radius.is_some() {
+                let default = PonchoDesc::default();
                 scene.source = PonchoSource::Pattern(PonchoDesc {
-                    vertices: n,
-                    ..PonchoDesc::default()
+                    vertices: if n_given { n } else { default.vertices },
+                    neck_radius: neck_radius.unwrap_or(default.neck_radius),
+                    ..default
                 });
             } else {
                 // Run from the repository root, where the assets are.

@@ -108,26 +108,6 @@ pub(crate) fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
     }
 }
 
-/// Projects `|x_p - x_anchor| <= length` moving both particles in the ratio of their inverse
-/// masses (stiffness 1): a long-range inextensibility limit between two free particles, which
-/// keeps momentum.
-#[inline(always)]
-pub(crate) fn project_mutual_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {
-    let (p, a) = (tether.particle as usize, tether.anchor as usize);
-    let wsum = w[p] + w[a];
-    if wsum <= 0.0 {
-        return;
-    }
-    let d = x[p] - x[a];
-    let len_sq = d.length_squared();
-    if len_sq > tether.length * tether.length {
-        let len = len_sq.sqrt();
-        let correction = d * ((len - tether.length) / (len * wsum));
-        x[p] -= correction * w[p];
-        x[a] += correction * w[a];
-    }
-}
-
 /// The signed dihedral angle of the triangles `(x0, x1, x2)` and `(x1, x0, x3)` about their
 /// shared edge `x0`-`x1`, in (-pi, pi]: 0 when flat, positive when the triangles fold toward
 /// their front faces. `None` if a triangle is degenerate.

@@ -29,9 +29,6 @@ mod step;
 pub use diagnostics::{Divergence, StrainStats};
 use passes::JacobiScratch;
 
-/// The most particles held by colliders that serve as anchors of contact tethers.
-const MAX_ANCHORS: usize = 128;
-
 /// How many nearest pinned particles each free particle is tethered to.
 const TETHERS_PER_PARTICLE: usize = 4;
 
@@ -99,9 +96,6 @@ pub struct ClothSolver {
     thin_contacts: ThinFeatureContacts,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
-    /// Tethers from free particles to the particles colliders held in the last step.
-    contact_tethers: Vec<Tether>,
-    anchors: Vec<u32>,
     /// Built the first time a step asks for a volume constraint (or its error).
     volume: Option<Result<VolumeConstraint, ClothError>>,
     /// Distances along the cloth at rest, built the first time tethers are made.
@@ -201,10 +195,6 @@ impl ClothSolver {
             contacts: ContactScratch::default(),
             thin_contacts: ThinFeatureContacts::default(),
             drag: None,
-            // At most one tether per particle and `MAX_ANCHORS` anchors: made here, so that
-            // the first contacts do not allocate inside a step.
-            contact_tethers: Vec::with_capacity(n),
-            anchors: Vec::with_capacity(MAX_ANCHORS),
             volume: None,
             rest_paths: None,
             self_collision: None,
@@ -636,7 +626,6 @@ impl ClothSolver {
         if dt == 0.0 {
             return Ok(());
         }
-        self.build_contact_tethers(settings);
         if settings.volume.is_some() && self.volume.is_none() {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
@@ -748,63 +737,6 @@ impl ClothSolver {
             break;
         }
         self.last_substeps = run;
-    }
-
-    /// Rebuilds the contact tethers for the coming step: every free particle that no collider
-    /// touched in the last substep is tied to the nearest (in the rest shape) particle a
-    /// collider did touch, by their rest distance. An inextensible cloth can never be longer
-    /// between two of its points than along the cloth, so these only refuse stretch, like the
-    /// tethers to pins (Kim, Chentanez and Mueller 2012); unlike those, both ends move (in the
-    /// ratio of their inverse masses), so momentum is kept and a cloth cannot drift toward its
-    /// anchors. The rest distance is the straight one, which for a flat pattern is the
-    /// distance along the cloth unless a hole lies between the two. At most 128 held particles
-    /// (evenly spread over the contacts) serve as anchors.
-    ///
-    /// Measured with `cargo run --release --example scenes`: S2 at N = 64, 8 x 2, max strain
-    /// 20.9% without, 14.4% with; the poncho scene (S3) 55% without, 41% with.
-    fn build_contact_tethers(&mut self, settings: &SolverSettings) {
-        self.contact_tethers.clear();
-        if !settings.projects_long_range() || self.colliders.is_empty() {
-            return;
-        }
-        let w = &self.state.inverse_masses;
-        let contacts = self.contacts.contacts();
-        if contacts.len() != w.len() {
-            return;
-        }
-        let held = |i: usize| contacts[i].collider != u32::MAX && w[i] > 0.0;
-        self.anchors.clear();
-        let count = (0..w.len()).filter(|&i| held(i)).count();
-        if count == 0 {
-            return;
-        }
-        let stride = count.div_ceil(MAX_ANCHORS);
-        self.anchors.extend(
-            (0..w.len())
-                .filter(|&i| held(i))
-                .step_by(stride)
-                .map(|i| i as u32),
-        );
-        let rest = &self.model.rest_positions;
-        for i in 0..w.len() {
-            if w[i] == 0.0 || held(i) {
-                continue;
-            }
-            let mut best = (f32::INFINITY, u32::MAX);
-            for &a in &self.anchors {
-                let d = rest[i].distance_squared(rest[a as usize]);
-                if d < best.0 {
-                    best = (d, a);
-                }
-            }
-            if best.1 != u32::MAX {
-                self.contact_tethers.push(Tether {
-                    particle: i as u32,
-                    anchor: best.1,
-                    length: best.0.sqrt(),
-                });
-            }
-        }
     }
 
     /// Builds the volume constraint now (it is otherwise built by the first step with

@@ -9,10 +9,11 @@
 //! 2. project, `iterations` times (once for mass-spring), in this order: the long-range
 //!    constraints (stretch limits and tethers: XPBD and PBD if on, the hybrid only if its
 //!    method asks for them, never mass-spring), edges (XPBD and PBD all
-//!    of them, batched, or Jacobi for a closed cloth; the hybrid its structural edges;
-//!    mass-spring none: its edges are springs), volume, bending pairs (XPBD and PBD, their
-//!    multipliers accumulated over the substep's iterations), self-collision, colliders
-//!    (planes included: see `collide/contact.rs`). Bending in every iteration rather than
+//!    of them, batched, then once more the structural edges of particles a collider holds, each held particle
+//!    moving along its surface only (see `passes.rs`); or Jacobi for a closed cloth; the
+//!    hybrid its structural edges; mass-spring none: its edges are springs), volume, bending pairs (XPBD and PBD, their multipliers accumulated over
+//!    the substep's iterations), self-collision, colliders (planes included) with friction
+//!    on the positions for all but mass-spring (`collide/contact.rs`). Bending in every iteration rather than
 //!    the first alone costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and
 //!    holds it tighter at equal cost (0.74% max strain, against 0.82% for the first iteration
 //!    alone at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
@@ -24,14 +25,14 @@
 //!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
 //!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its self-collision and
 //!    contacts correct them directly).
-//! 4. contacts: restitution and Coulomb friction relative to each collider's surface
-//!    (`collide/contact.rs`); then damping.
+//! 4. contacts: restitution relative to each collider's surface, and for mass-spring Coulomb
+//!    friction on the velocities (`collide/contact.rs`); then damping.
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::ClothSolver;
-use super::passes::{damp, project_edges, project_edges_jacobi};
-use crate::cloth::constraints::{Projection, project_bending, project_mutual_tether};
+use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
+use crate::cloth::constraints::{Projection, project_bending};
 use crate::cloth::mass_spring::auto_substeps;
 use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
@@ -137,8 +138,9 @@ impl ClothSolver {
         // XPBD and PBD let a contact remove the substep's gravity as the particle rests; the
         // spring methods have already integrated it into the velocity.
         let contact_push = if uses_springs { Vec3A::ZERO } else { a * h };
-        // Mass-spring's velocities are its own, not the positions' difference.
-        let respond_inv_h = if mass_spring { 0.0 } else { inv_h };
+        // The methods that derive velocities from positions apply friction to the positions,
+        // in every iteration; mass-spring to its velocities after the substep.
+        let friction_step = (!mass_spring).then_some(h);
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
         let air = settings
@@ -269,9 +271,6 @@ impl ClothSolver {
                 if long_range {
                     self.limit_batches.project_limits(x);
                     self.tether_batches.project_limits(x);
-                    for tether in &self.contact_tethers {
-                        project_mutual_tether(x, w, tether);
-                    }
                 }
                 if let Some(stretch) = projections.stretch {
                     let (edges, lambdas) = match springs.as_deref_mut() {
@@ -288,6 +287,9 @@ impl ClothSolver {
                             x,
                             batch_stretch,
                         );
+                        if !colliders.is_empty() {
+                            project_held_edges(&self.model.edges, x, w, self.contacts.held());
+                        }
                     }
                 }
                 if let Some((v, constraint)) = volume.as_mut() {
@@ -328,6 +330,7 @@ impl ClothSolver {
                         w,
                         contact_push,
                         settings.thickness,
+                        friction_step,
                     );
                     if thin_contacts {
                         self.thin_contacts.project(
@@ -374,8 +377,15 @@ impl ClothSolver {
             // 4. Contacts: restitution and friction relative to each collider's surface, then
             //    damping.
             if !colliders.is_empty() {
-                self.contacts
-                    .respond(colliders, x, x_prev, v, respond_inv_h, h, bounce_threshold);
+                self.contacts.respond(
+                    colliders,
+                    x,
+                    x_prev,
+                    v,
+                    h,
+                    bounce_threshold,
+                    friction_step.is_some(),
+                );
             }
             damp(settings, damping_k, x, v, w, &self.free_masses);
         }
