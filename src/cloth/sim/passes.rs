@@ -154,9 +154,12 @@ pub(super) fn damp(
 /// two settle with the edge stretched; here that part goes to the other end.
 ///
 /// Measured with `cargo run --release --example scenes -- s3 --motion M` (default 8 x 2,
-/// 600 steps), with the position-level friction of `collide/contact.rs`, against the sweep
-/// alone: the median step's largest strain 25.6% to 21.5% in place, 30.8% to 26.4% jogging,
-/// its 99.9th percentile edge 15.9-18.9% to 15.0-15.9%, the cost within noise; S2 unchanged.
+/// 600 steps), this pass and the position-level friction of `collide/contact.rs` together,
+/// against the velocity-level friction and contact tethers they replaced, in one run: the
+/// median step's largest strain 26% to 22% in place, 37% to 26% walking, 32% to 26% jogging;
+/// its 99.9th percentile edge 17.6-19.4% to 14.8-15.5%; the cost within noise. (A version
+/// that also held particles the edge lifts off the surface could not lift a sheet off the
+/// ground: `tests/interaction.rs`.)
 pub(super) fn project_held_edges(edges: &[Edge], x: &mut [Vec3A], w: &[f32], held: &[Vec3A]) {
     for edge in edges.iter().filter(|e| e.kind != EdgeKind::Shear) {
         let [a, b] = edge.particles.map(|i| i as usize);

@@ -8,14 +8,15 @@
 //!    their interpolated targets.
 //! 2. project, `iterations` times (once for mass-spring), in this order: the long-range
 //!    constraints (stretch limits and tethers: XPBD and PBD if on, the hybrid only if its
-//!    method asks for them, never mass-spring), edges (XPBD and PBD all
-//!    of them, batched, then once more the structural edges of particles a collider holds, each held particle
-//!    moving along its surface only (see `passes.rs`); or Jacobi for a closed cloth; the
-//!    hybrid its structural edges; mass-spring none: its edges are springs), volume, bending pairs (XPBD and PBD, their multipliers accumulated over
-//!    the substep's iterations), self-collision, colliders (planes included) with friction
-//!    on the positions for all but mass-spring (`collide/contact.rs`). Bending in every iteration rather than
-//!    the first alone costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and
-//!    holds it tighter at equal cost (0.74% max strain, against 0.82% for the first iteration
+//!    method asks for them, never mass-spring), edges (XPBD and PBD all of them, batched,
+//!    then once more the structural edges of particles a collider holds, each held particle
+//!    moving along its surface only (`passes.rs`); or Jacobi for a closed cloth; the hybrid
+//!    its structural edges; mass-spring none: its edges are springs), volume, bending pairs
+//!    (XPBD and PBD, their multipliers accumulated over the substep's iterations),
+//!    self-collision, colliders (planes included) with friction on the positions for all but
+//!    mass-spring (`collide/contact.rs`). Bending in every iteration rather than the first
+//!    alone costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
+//!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration
 //!    alone at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
 //!    budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%, 0.43%, 0.50%). Bending
 //!    in the last iteration alone costs what the first did and holds S1 as well, but leaves
@@ -374,8 +375,8 @@ impl ClothSolver {
                 }
             }
 
-            // 4. Contacts: restitution and friction relative to each collider's surface, then
-            //    damping.
+            // 4. Contacts: restitution (and mass-spring's friction) relative to each collider's
+            //    surface, then damping.
             if !colliders.is_empty() {
                 self.contacts.respond(
                     colliders,
