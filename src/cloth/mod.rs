@@ -20,6 +20,7 @@ pub(crate) mod model;
 pub(crate) mod ordering;
 pub mod plugin;
 pub(crate) mod rest_paths;
+pub(crate) mod rims;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod self_collision;
 pub(crate) mod settings;

@@ -12,6 +12,7 @@ use super::mass_spring::SpringSet;
 use super::model::{BendingPair, ClothModel, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::rest_paths::RestPaths;
+use super::rims::{Rim, find_rims};
 use super::self_collision::SelfCollision;
 use super::settings::{AdaptiveSubsteps, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
@@ -98,6 +99,8 @@ pub struct ClothSolver {
     drag: Option<Pin>,
     /// Built the first time a step asks for a volume constraint (or its error).
     volume: Option<Result<VolumeConstraint, ClothError>>,
+    /// The rims of the cloth's holes, their lengths limited (`rims.rs`).
+    rims: Vec<Rim>,
     /// Distances along the cloth at rest, built the first time tethers are made.
     rest_paths: Option<RestPaths>,
     /// Built the first time a step asks for self-collision.
@@ -141,6 +144,7 @@ impl ClothSolver {
             .filter(|e| e.kind == EdgeKind::Structural)
             .collect();
         let stretch_limits = straight_line_limits(&model.rest_positions, &structural);
+        let rims = find_rims(&model.rest_positions, &model.triangles);
         let limit_batches = PairBatches::new(
             stretch_limits.iter().map(|l| (l.particles, l.length)),
             n,
@@ -197,6 +201,7 @@ impl ClothSolver {
             drag: None,
             volume: None,
             rest_paths: None,
+            rims,
             self_collision: None,
             self_contacts: 0,
             adaptive_substeps: 0,

@@ -11,7 +11,8 @@
 //!    method asks for them, never mass-spring), edges (XPBD and PBD all of them, batched,
 //!    then once more the structural edges of particles a collider holds, each held particle
 //!    moving along its surface only (`passes.rs`); or Jacobi for a closed cloth; the hybrid
-//!    its structural edges; mass-spring none: its edges are springs), volume, bending pairs
+//!    its structural edges; mass-spring none: its edges are springs), the rim limits of the
+//!    cloth's holes (with the long-range constraints, `rims.rs`), volume, bending pairs
 //!    (XPBD and PBD, their multipliers accumulated over the substep's iterations),
 //!    self-collision, colliders (planes included) with friction on the positions for all but
 //!    mass-spring (`collide/contact.rs`). Bending in every iteration rather than the first
@@ -35,6 +36,7 @@ use super::ClothSolver;
 use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
 use crate::cloth::constraints::{Projection, project_bending};
 use crate::cloth::mass_spring::auto_substeps;
+use crate::cloth::rims::project_rim;
 use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
 
@@ -291,6 +293,13 @@ impl ClothSolver {
                         if !colliders.is_empty() {
                             project_held_edges(&self.model.edges, x, w, self.contacts.held());
                         }
+                    }
+                }
+                // Rim limits after the edges, with the other long-range constraints' condition
+                // (exact for an inextensible cloth only).
+                if long_range {
+                    for rim in &self.rims {
+                        project_rim(x, w, rim);
                     }
                 }
                 if let Some((v, constraint)) = volume.as_mut() {

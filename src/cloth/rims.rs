@@ -1,0 +1,292 @@
+//! Rim limits: the rim of a hole in the cloth (a collar, a cuff, the end of a sleeve) is never
+//! longer than at rest.
+//!
+//! A ring of cloth that rests on a dome or a cone (a collar on the shoulders) carries the
+//! weight below it as hoop tension. Stretched uniformly, the ring must move towards its axis
+//! to recover, but each edge projection moves its two particles almost along the ring: a
+//! Gauss-Seidel sweep passes the error round the ring and takes out only a fraction of order
+//! `(pi / n)^2` of it per sweep for a ring of `n` edges, while the contact pushes the ring
+//! out again in every iteration. The rim slides down the dome until its edges are stretched
+//! enough to hold it.
+//!
+//! The rim limit is the constraint on that slow mode alone: the rim's length, the sum of its
+//! edges, at most the sum of their rest lengths. It is exact (an unstretched cloth always
+//! meets it; the rim may fold and twist freely), unilateral, and projected as a scaling of
+//! the rim about its centre of mass, which is the direction its length changes fastest for a
+//! round rim and moves no particle along the rim: one projection puts a uniformly stretched
+//! round rim back to its rest length, wherever the contact left it.
+//!
+//! Rims are the boundary loops of the mesh that bound a hole: at rest, the cloth next to the
+//! loop lies away from the loop's centroid (or beside it, for the end of a tube). The outer
+//! boundary of a sheet, with the cloth inside the loop, has none: contracting it would pull
+//! the sheet's edge into the cloth.
+
+use bevy::math::{Vec3, Vec3A};
+
+/// The mean cosine between a boundary loop's contraction (`c - x_i`) and the direction from
+/// `x_i` into the cloth beside it, above which the loop encloses the cloth and is no rim.
+const ENCLOSES_COS: f32 = 0.5;
+
+/// No particle moves farther than this times the rim's excess length in one projection (a
+/// round rim moves each by about `1 / (2 pi)` of it; a rim folded onto itself, or held along
+/// a surface that leaves it little room, has a short lever and would otherwise jump).
+const MAX_MOVE: f32 = 0.5;
+
+/// A closed boundary loop of the cloth around a hole, its length limited to its rest length.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Rim {
+    /// The loop's particles, in order round it.
+    pub(crate) particles: Vec<u32>,
+    /// The sum of the rest lengths of its edges, metres.
+    pub(crate) rest_length: f32,
+}
+
+/// The rims of a mesh with rest positions `rest` and `triangles`: every closed boundary loop
+/// that bounds a hole (see the [module docs](self)). Loops through a vertex with more than two
+/// boundary edges (two holes meeting at a point) are left out.
+pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
+    let n = rest.len();
+    // Directed half-edges; a boundary edge is one whose twin is missing.
+    let mut half: Vec<(u32, u32, u32)> = Vec::with_capacity(triangles.len() * 3);
+    for (t, tri) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            half.push((tri[k], tri[(k + 1) % 3], t as u32));
+        }
+    }
+    let mut undirected: Vec<(u32, u32)> =
+        half.iter().map(|&(a, b, _)| (a.min(b), a.max(b))).collect();
+    undirected.sort_unstable();
+    let count = |a: u32, b: u32| {
+        let key = (a.min(b), a.max(b));
+        let lo = undirected.partition_point(|&e| e < key);
+        let hi = undirected.partition_point(|&e| e <= key);
+        hi - lo
+    };
+    // Per vertex, its boundary neighbours and the triangle beside each boundary edge.
+    let mut next: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    for &(a, b, t) in &half {
+        if (a as usize) < n && (b as usize) < n && count(a, b) == 1 {
+            next[a as usize].push((b, t));
+            next[b as usize].push((a, t));
+        }
+    }
+    let mut visited = vec![false; n];
+    let mut rims = Vec::new();
+    for start in 0..n {
+        if visited[start] || next[start].len() != 2 {
+            continue;
+        }
+        let mut loop_particles = vec![start as u32];
+        let mut beside = vec![next[start][0].1];
+        visited[start] = true;
+        let (mut previous, mut current) = (start as u32, next[start][0].0);
+        let mut closed = false;
+        let mut regular = true;
+        while !visited[current as usize] || current as usize == start {
+            if current as usize == start {
+                closed = true;
+                break;
+            }
+            let links = &next[current as usize];
+            if links.len() != 2 {
+                regular = false;
+                break;
+            }
+            visited[current as usize] = true;
+            loop_particles.push(current);
+            let (to, t) = if links[0].0 == previous {
+                links[1]
+            } else {
+                links[0]
+            };
+            beside.push(t);
+            previous = current;
+            current = to;
+        }
+        if !closed || !regular || loop_particles.len() < 3 {
+            continue;
+        }
+        let points: Vec<Vec3> = loop_particles.iter().map(|&i| rest[i as usize]).collect();
+        let centroid = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+        // Into the cloth: from the edge's midpoint to the centroid of the triangle beside it.
+        let mut cos_sum = 0.0;
+        for (k, &t) in beside.iter().enumerate() {
+            let (p, q) = (points[k], points[(k + 1) % points.len()]);
+            let mid = (p + q) * 0.5;
+            let tri = triangles[t as usize].map(|i| rest[i as usize]);
+            let inward = ((tri[0] + tri[1] + tri[2]) / 3.0 - mid).normalize_or_zero();
+            cos_sum += (centroid - mid).normalize_or_zero().dot(inward);
+        }
+        if cos_sum / beside.len() as f32 > ENCLOSES_COS {
+            continue;
+        }
+        let rest_length = (0..points.len())
+            .map(|k| points[k].distance(points[(k + 1) % points.len()]))
+            .sum();
+        rims.push(Rim {
+            particles: loop_particles,
+            rest_length,
+        });
+    }
+    rims
+}
+
+/// Projects the rim limit of `rim` (stiffness 1; nothing happens while the rim is no longer
+/// than at rest): its free particles are scaled towards their centre of mass `c`,
+/// `x_i -= s (x_i - c)`, with `s` chosen so that the rim's length to first order comes back
+/// to its rest length (exactly, for a rim that is a scaled copy of its rest shape), and no
+/// particle moves farther than [`MAX_MOVE`] times the excess length. A scaling about the
+/// centre of mass keeps the linear and angular momentum, and the rim's shape: moving each
+/// particle by its own inverse mass, as a distance projection does, would make neighbours of
+/// different masses zigzag.
+pub(crate) fn project_rim(x: &mut [Vec3A], w: &[f32], rim: &Rim) {
+    let p = &rim.particles;
+    let len = p.len();
+    if len < 3 {
+        return;
+    }
+    let at = |x: &[Vec3A], k: usize| x[p[k % len] as usize];
+    let mut length = 0.0;
+    let mut moment = Vec3A::ZERO;
+    let mut mass = 0.0;
+    for k in 0..len {
+        length += at(x, k).distance(at(x, k + 1));
+        let wi = w[p[k] as usize];
+        if wi > 0.0 {
+            moment += at(x, k) / wi;
+            mass += 1.0 / wi;
+        }
+    }
+    let excess = length - rim.rest_length;
+    if excess <= 0.0 || mass <= 0.0 {
+        return;
+    }
+    let centre = moment / mass;
+    // dC/ds along the move: the sum over free particles of grad_i C . (x_i - c).
+    let mut rate = 0.0;
+    let mut reach = 0.0f32;
+    for k in 0..len {
+        if w[p[k] as usize] <= 0.0 {
+            continue;
+        }
+        let (before, here, after) = (at(x, k + len - 1), at(x, k), at(x, k + 1));
+        let grad = (here - before).normalize_or_zero() - (after - here).normalize_or_zero();
+        rate += grad.dot(here - centre);
+        reach = reach.max((here - centre).length());
+    }
+    // A rim that is not finite, or has no lever to contract with, is left alone.
+    if rate.is_nan() || rate <= f32::EPSILON * length * reach {
+        return;
+    }
+    let s = (excess / rate).min(MAX_MOVE * excess / reach);
+    for &i in p {
+        let i = i as usize;
+        if w[i] > 0.0 {
+            x[i] -= (x[i] - centre) * s;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloth::garment::PonchoDesc;
+    use crate::cloth::model::GridDesc;
+    use bevy::math::Quat;
+
+    fn triangles(indices: &[u32]) -> Vec<[u32; 3]> {
+        indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect()
+    }
+
+    /// A small deterministic generator (xorshift) in [0, 1).
+    fn next(state: &mut u64) -> f32 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    fn length(x: &[Vec3A], rim: &Rim) -> f32 {
+        let p = &rim.particles;
+        (0..p.len())
+            .map(|k| x[p[k] as usize].distance(x[p[(k + 1) % p.len()] as usize]))
+            .sum()
+    }
+
+    #[test]
+    fn a_sheet_has_no_rim_and_a_poncho_has_its_collar() {
+        let sheet = GridDesc::square(1.0, 9, Vec3::ZERO).mesh();
+        assert!(find_rims(&sheet.positions, &triangles(&sheet.indices)).is_empty());
+        let desc = PonchoDesc::default();
+        let poncho = desc.mesh().unwrap();
+        let rims = find_rims(&poncho.positions, &triangles(&poncho.indices));
+        assert_eq!(rims.len(), 1);
+        for &i in &rims[0].particles {
+            let p = poncho.positions[i as usize];
+            let r = (p.x * p.x + p.z * p.z).sqrt();
+            assert!(r < desc.neck_radius + 1.5 * desc.spacing(), "{r}");
+        }
+    }
+
+    /// Random round rims, tilted and stretched uniformly, with random masses: one projection
+    /// gives back the rest length (a circle scaled about any point is a circle, whose length
+    /// is linear in the scale), conserves the linear momentum, and a rim at or below its rest
+    /// length is not moved.
+    #[test]
+    fn one_projection_restores_a_stretched_round_rim_and_conserves_momentum() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        for _ in 0..50 {
+            let n = 3 + (next(&mut state) * 60.0) as usize;
+            let radius = 0.02 + next(&mut state);
+            let tilt = Quat::from_rotation_x(next(&mut state) * 3.0)
+                * Quat::from_rotation_z(next(&mut state) * 3.0);
+            let centre = Vec3A::new(next(&mut state), next(&mut state), next(&mut state));
+            let circle: Vec<Vec3A> = (0..n)
+                .map(|k| {
+                    let a = k as f32 / n as f32 * std::f32::consts::TAU;
+                    centre + Vec3A::from(tilt * Vec3::new(radius * a.cos(), 0.0, radius * a.sin()))
+                })
+                .collect();
+            let rim = Rim {
+                particles: (0..n as u32).collect(),
+                rest_length: length(
+                    &circle,
+                    &Rim {
+                        particles: (0..n as u32).collect(),
+                        rest_length: 0.0,
+                    },
+                ),
+            };
+            let w: Vec<f32> = (0..n).map(|_| 0.1 + 10.0 * next(&mut state)).collect();
+            let stretch = 1.0 + 0.3 * next(&mut state);
+            let mut x: Vec<Vec3A> = circle
+                .iter()
+                .map(|&p| centre + (p - centre) * stretch)
+                .collect();
+            let before = x.clone();
+            project_rim(&mut x, &w, &rim);
+            let after = length(&x, &rim);
+            assert!(
+                (after - rim.rest_length).abs() < 1e-4 * rim.rest_length,
+                "{n} particles: {after} against {}",
+                rim.rest_length
+            );
+            let momentum: Vec3A = (0..n).map(|i| (x[i] - before[i]) / w[i]).sum();
+            let scale: f32 = (0..n).map(|i| (x[i] - before[i]).length() / w[i]).sum();
+            assert!(momentum.length() <= 1e-4 * scale, "{momentum} of {scale}");
+            let mut rest = circle.clone();
+            project_rim(&mut rest, &w, &rim);
+            let mut shorter: Vec<Vec3A> = circle
+                .iter()
+                .map(|&p| centre + (p - centre) * 0.9)
+                .collect();
+            let copy = shorter.clone();
+            project_rim(&mut shorter, &w, &rim);
+            assert!(rest.iter().zip(&circle).all(|(a, b)| a.distance(*b) < 1e-6));
+            assert_eq!(shorter, copy);
+        }
+    }
+}
