@@ -120,9 +120,9 @@ fn a_ring_of_cloth_rests_on_a_dome_without_stretching() {
 /// the capstan friction holds): each comes to rest hanging over the bar, and no edge is
 /// ever stretched past 10% after the first second. (Measured as above: the largest strain
 /// 5.0%, 6.3% and 6.8%, 3.3 to 5.1% at the end. Two of the three strips slide 0.16 and
-/// 0.34 m towards their longer side before they stop, which Coulomb friction with
-/// `exp(mu pi)` > 4 would not allow against an imbalance of 1.4: friction on the positions
-/// holds less than the capstan law at this budget.)
+/// 0.34 m towards their longer side before they stop: they land flat, and the friction that
+/// holds them grows with the angle they wrap round the bar, `exp(mu theta)`, as their ends
+/// fall.)
 #[test]
 fn a_strip_hangs_over_a_bar_without_stretching() {
     let mut rng = Rng(0x5851_f42d_4c95_7f2d);
