@@ -47,6 +47,12 @@ impl std::fmt::Display for Divergence {
 impl ClothSolver {
     /// The strain `|len - rest| / rest` of every structural edge, in the model's order.
     pub fn edge_strains(&self) -> impl Iterator<Item = f32> + '_ {
+        self.edge_extensions().map(f32::abs)
+    }
+
+    /// The signed strain `(len - rest) / rest` of every structural edge, in the model's
+    /// order: positive stretched, negative compressed.
+    pub fn edge_extensions(&self) -> impl Iterator<Item = f32> + '_ {
         let x = &self.state.positions;
         self.model
             .edges
@@ -54,7 +60,7 @@ impl ClothSolver {
             .filter(|e| e.kind == EdgeKind::Structural)
             .map(move |edge| {
                 let [a, b] = edge.particles;
-                (x[a as usize].distance(x[b as usize]) - edge.rest_length).abs() / edge.rest_length
+                (x[a as usize].distance(x[b as usize]) - edge.rest_length) / edge.rest_length
             })
     }
 

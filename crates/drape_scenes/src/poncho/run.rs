@@ -25,6 +25,13 @@ pub struct PonchoRun {
     pub deepest_penetration: f32,
     /// The largest structural strain of every step after the first [`SETTLE_SECONDS`].
     pub step_max_strain: Vec<f32>,
+    /// The largest stretch (`(len - rest) / rest`, 0 if no edge is longer than at rest) of
+    /// every step after the first [`SETTLE_SECONDS`].
+    pub step_max_stretch: Vec<f32>,
+    /// The largest compression (`(rest - len) / rest`, 0 if no edge is shorter than at rest)
+    /// of every step after the first [`SETTLE_SECONDS`]. Each step's largest strain is the
+    /// larger of the two.
+    pub step_max_compression: Vec<f32>,
     /// Every structural edge's strain after every step after the first [`SETTLE_SECONDS`],
     /// as a histogram of [`STRAIN_BIN`]-wide bins (the last bin holds everything above).
     pub strain_histogram: Vec<u64>,
@@ -67,6 +74,8 @@ struct S3Line {
     deepest_penetration: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
+    step_max_stretch_median: f32,
+    step_max_compression_median: f32,
     edge_strain_p999: f32,
     max_centroid_offset: f32,
     max_kinetic_energy: f32,
@@ -74,6 +83,12 @@ struct S3Line {
     divergences: u32,
     frozen: bool,
     finite: bool,
+}
+
+/// The median of `values`.
+fn median_f32(values: &[f32]) -> f32 {
+    let values: Vec<f64> = values.iter().map(|&s| s as f64).collect();
+    crate::scenes::median(&values) as f32
 }
 
 /// The width of a bin of [`PonchoRun::strain_histogram`].
@@ -102,6 +117,8 @@ impl PonchoRun {
             deepest_penetration: self.deepest_penetration,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
+            step_max_stretch_median: median_f32(&self.step_max_stretch),
+            step_max_compression_median: median_f32(&self.step_max_compression),
             edge_strain_p999: self.edge_strain_percentile(0.999),
             max_centroid_offset: self.max_centroid_offset,
             max_kinetic_energy: self.max_kinetic_energy,
@@ -126,8 +143,7 @@ impl PonchoRun {
 
     /// The median over the steps of each step's largest strain.
     pub fn step_strain_median(&self) -> f32 {
-        let values: Vec<f64> = self.step_max_strain.iter().map(|&s| s as f64).collect();
-        crate::scenes::median(&values) as f32
+        median_f32(&self.step_max_strain)
     }
 
     /// The largest strain of any step.
@@ -362,13 +378,16 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         if !settled {
             continue;
         }
-        let mut step_max = 0.0f32;
-        for strain in sim.edge_strains() {
-            step_max = step_max.max(strain);
-            let bin = ((strain / STRAIN_BIN) as usize).min(run.strain_histogram.len() - 1);
+        let (mut stretch, mut compression) = (0.0f32, 0.0f32);
+        for extension in sim.edge_extensions() {
+            stretch = stretch.max(extension);
+            compression = compression.max(-extension);
+            let bin = ((extension.abs() / STRAIN_BIN) as usize).min(run.strain_histogram.len() - 1);
             run.strain_histogram[bin] += 1;
         }
-        run.step_max_strain.push(step_max);
+        run.step_max_strain.push(stretch.max(compression));
+        run.step_max_stretch.push(stretch);
+        run.step_max_compression.push(compression);
         run.max_kinetic_energy = run.max_kinetic_energy.max(sim.kinetic_energy());
         if let Some(chest) = chest
             && !x.is_empty()
