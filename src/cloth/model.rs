@@ -186,6 +186,31 @@ const DEGENERATE_RELATIVE_AREA: f32 = 1e-6;
 /// Recognises a mesh laid out as [`GridDesc::mesh`] lays it out: vertex `(i, j)` at index
 /// `j nx + i` on a regular lattice, every grid edge present, one diagonal per quad and two
 /// triangles per quad. `edges` must be sorted by their particles. Returns `(nx, nz)`.
+/// The boundary edges of `triangles` (those on one triangle only), each as its two particles,
+/// smaller index first, with the index of its triangle; sorted by particles.
+pub(crate) fn boundary_edges(triangles: &[[u32; 3]]) -> Vec<([u32; 2], u32)> {
+    let mut sides: Vec<([u32; 2], u32)> = triangles
+        .iter()
+        .enumerate()
+        .flat_map(|(t, &[a, b, c])| [[a, b], [b, c], [c, a]].map(|side| (side, t as u32)))
+        .map(|([a, b], t)| ([a.min(b), a.max(b)], t))
+        .collect();
+    sides.sort_unstable();
+    let mut boundary = Vec::new();
+    let mut k = 0;
+    while k < sides.len() {
+        let mut j = k + 1;
+        while j < sides.len() && sides[j].0 == sides[k].0 {
+            j += 1;
+        }
+        if j - k == 1 {
+            boundary.push(sides[k]);
+        }
+        k = j;
+    }
+    boundary
+}
+
 fn recognise_grid(positions: &[Vec3], triangle_count: usize, edges: &[Edge]) -> Option<UVec2> {
     let n = positions.len();
     let has_edge = |a: usize, b: usize| {

@@ -15,7 +15,7 @@ use std::collections::BinaryHeap;
 
 use bevy::math::{Vec2, Vec3};
 
-use super::model::ClothModel;
+use super::model::{ClothModel, boundary_edges};
 
 /// Where the straight rest distance is the distance along the cloth.
 #[derive(Clone, Debug)]
@@ -204,26 +204,10 @@ fn straight_segments(model: &ClothModel) -> Straight {
         return none;
     }
     let at = |p: Vec3| Vec2::new((p - p0).dot(x), (p - p0).dot(y));
-    // Boundary edges: on one triangle only.
-    let mut sides: Vec<[u32; 2]> = model
-        .triangles
-        .iter()
-        .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
-        .map(|[a, b]| [a.min(b), a.max(b)])
+    let boundary: Vec<[u32; 2]> = boundary_edges(&model.triangles)
+        .into_iter()
+        .map(|(side, _)| side)
         .collect();
-    sides.sort_unstable();
-    let mut boundary = Vec::new();
-    let mut k = 0;
-    while k < sides.len() {
-        let mut j = k + 1;
-        while j < sides.len() && sides[j] == sides[k] {
-            j += 1;
-        }
-        if j - k == 1 {
-            boundary.push(sides[k]);
-        }
-        k = j;
-    }
     let flat: Vec<Vec2> = rest.iter().map(|&p| at(p)).collect();
     let segments: Vec<[Vec2; 2]> = boundary
         .iter()

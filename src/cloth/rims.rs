@@ -23,6 +23,8 @@
 
 use bevy::math::{Vec3, Vec3A};
 
+use super::model::boundary_edges;
+
 /// The mean cosine between a boundary loop's contraction (`c - x_i`) and the direction from
 /// `x_i` into the cloth beside it, above which the loop encloses the cloth and is no rim.
 const ENCLOSES_COS: f32 = 0.5;
@@ -46,26 +48,10 @@ pub(crate) struct Rim {
 /// boundary edges (two holes meeting at a point) are left out.
 pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
     let n = rest.len();
-    // Directed half-edges; a boundary edge is one whose twin is missing.
-    let mut half: Vec<(u32, u32, u32)> = Vec::with_capacity(triangles.len() * 3);
-    for (t, tri) in triangles.iter().enumerate() {
-        for k in 0..3 {
-            half.push((tri[k], tri[(k + 1) % 3], t as u32));
-        }
-    }
-    let mut undirected: Vec<(u32, u32)> =
-        half.iter().map(|&(a, b, _)| (a.min(b), a.max(b))).collect();
-    undirected.sort_unstable();
-    let count = |a: u32, b: u32| {
-        let key = (a.min(b), a.max(b));
-        let lo = undirected.partition_point(|&e| e < key);
-        let hi = undirected.partition_point(|&e| e <= key);
-        hi - lo
-    };
     // Per vertex, its boundary neighbours and the triangle beside each boundary edge.
     let mut next: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
-    for &(a, b, t) in &half {
-        if (a as usize) < n && (b as usize) < n && count(a, b) == 1 {
+    for ([a, b], t) in boundary_edges(triangles) {
+        if (b as usize) < n {
             next[a as usize].push((b, t));
             next[b as usize].push((a, t));
         }
@@ -76,21 +62,20 @@ pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
         if visited[start] || next[start].len() != 2 {
             continue;
         }
-        let mut loop_particles = vec![start as u32];
-        let mut beside = vec![next[start][0].1];
+        // Walk round the loop until it closes, or stops at a vertex that is not on exactly
+        // two boundary edges.
         visited[start] = true;
-        let (mut previous, mut current) = (start as u32, next[start][0].0);
-        let mut closed = false;
-        let mut regular = true;
-        while !visited[current as usize] || current as usize == start {
+        let mut loop_particles = vec![start as u32];
+        let (mut current, first) = next[start][0];
+        let mut beside = vec![first];
+        let mut previous = start as u32;
+        let closed = loop {
             if current as usize == start {
-                closed = true;
-                break;
+                break true;
             }
             let links = &next[current as usize];
-            if links.len() != 2 {
-                regular = false;
-                break;
+            if visited[current as usize] || links.len() != 2 {
+                break false;
             }
             visited[current as usize] = true;
             loop_particles.push(current);
@@ -102,8 +87,8 @@ pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
             beside.push(t);
             previous = current;
             current = to;
-        }
-        if !closed || !regular || loop_particles.len() < 3 {
+        };
+        if !closed || loop_particles.len() < 3 {
             continue;
         }
         let points: Vec<Vec3> = loop_particles.iter().map(|&i| rest[i as usize]).collect();
@@ -209,8 +194,7 @@ mod tests {
         (*state >> 40) as f32 / (1u64 << 24) as f32
     }
 
-    fn length(x: &[Vec3A], rim: &Rim) -> f32 {
-        let p = &rim.particles;
+    fn length(x: &[Vec3A], p: &[u32]) -> f32 {
         (0..p.len())
             .map(|k| x[p[k] as usize].distance(x[p[(k + 1) % p.len()] as usize]))
             .sum()
@@ -250,15 +234,10 @@ mod tests {
                     centre + Vec3A::from(tilt * Vec3::new(radius * a.cos(), 0.0, radius * a.sin()))
                 })
                 .collect();
+            let particles: Vec<u32> = (0..n as u32).collect();
             let rim = Rim {
-                particles: (0..n as u32).collect(),
-                rest_length: length(
-                    &circle,
-                    &Rim {
-                        particles: (0..n as u32).collect(),
-                        rest_length: 0.0,
-                    },
-                ),
+                rest_length: length(&circle, &particles),
+                particles,
             };
             let w: Vec<f32> = (0..n).map(|_| 0.1 + 10.0 * next(&mut state)).collect();
             let stretch = 1.0 + 0.3 * next(&mut state);
@@ -268,7 +247,7 @@ mod tests {
                 .collect();
             let before = x.clone();
             project_rim(&mut x, &w, &rim);
-            let after = length(&x, &rim);
+            let after = length(&x, &rim.particles);
             assert!(
                 (after - rim.rest_length).abs() < 1e-4 * rim.rest_length,
                 "{n} particles: {after} against {}",
