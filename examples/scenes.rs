@@ -6,13 +6,14 @@
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
-//!     [--wind 10] [--gusts 0]
+//!     [--simulate-n 21] [--wind 10] [--gusts 0]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
 //! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
 //! `ClothSettings::inertia`; `--neck-radius` (or `--n`) makes the poncho from its pattern
-//! (`PonchoDesc`) instead of the shipped OBJ.
+//! (`PonchoDesc`) instead of the shipped OBJ; `--simulate-n` simulates it on the pattern with
+//! that many vertices per side (`ClothSimulationMesh`) while the OBJ (or `--n`) is drawn.
 //!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
@@ -60,6 +61,7 @@ fn run() -> Result<(), String> {
     let mut wind_speed = 10.0f32;
     let mut gusts = 0.0f32;
     let mut neck_radius: Option<f32> = None;
+    let mut simulate_n: Option<u32> = None;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
         "mass-spring"
@@ -100,6 +102,7 @@ fn run() -> Result<(), String> {
             "--wind" => wind_speed = parse(&value()?)?,
             "--gusts" => gusts = parse(&value()?)?,
             "--neck-radius" => neck_radius = Some(parse(&value()?)?),
+            "--simulate-n" => simulate_n = Some(parse(&value()?)?),
             "--no-air" => settings.air = None,
             other => return Err(format!("unknown option {other}")),
         }
@@ -220,6 +223,14 @@ fn run() -> Result<(), String> {
             } else {
                 // Run from the repository root, where the assets are.
                 scene.source = PonchoSource::Asset("meshes/poncho.obj".into());
+            }
+            if let Some(vertices) = simulate_n {
+                let default = PonchoDesc::default();
+                scene.simulated = Some(PonchoSource::Pattern(PonchoDesc {
+                    vertices,
+                    neck_radius: neck_radius.unwrap_or(default.neck_radius),
+                    ..default
+                }));
             }
             let run = run_headless(scene, frames)
                 .map_err(|e| format!("{e} (is the working directory the repository root?)"))?;

@@ -32,6 +32,7 @@ pub mod prelude {
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
         ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
     };
+    pub use crate::cloth::render_mesh::ClothSimulationMesh;
     pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
     pub use crate::cloth::{
         AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,

@@ -43,12 +43,7 @@ fn spawn_cloth(app: &mut App, grid: &GridDesc, cloth: Cloth, transform: Transfor
 }
 
 fn positions(app: &App, entity: Entity) -> Vec<Vec3> {
-    let handle = &app.world().get::<Mesh3d>(entity).unwrap().0;
-    let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
-    match mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap() {
-        VertexAttributeValues::Float32x3(p) => p.iter().map(|&p| Vec3::from_array(p)).collect(),
-        _ => panic!("positions are Float32x3"),
-    }
+    attribute(app, entity, Mesh::ATTRIBUTE_POSITION)
 }
 
 #[test]
@@ -163,19 +158,41 @@ fn bad_meshes_are_refused_with_an_error_component_and_the_app_keeps_running() {
     );
     let good = meshes.add(grid_mesh(&GridDesc::square(1.0, 4, Vec3::ZERO)));
     let other = meshes.add(grid_mesh(&GridDesc::square(1.0, 4, Vec3::ZERO)));
+    let fine = meshes.add(grid_mesh(&GridDesc::square(1.0, 9, Vec3::ZERO)));
     let bad_settings = ClothSettings {
         density: -1.0,
         ..default()
     };
     let world = app.world_mut();
     let a = world.spawn((Mesh3d(no_triangles), Cloth::default())).id();
-    let b = world.spawn((Mesh3d(nan), Cloth::default())).id();
+    let b = world.spawn((Mesh3d(nan.clone()), Cloth::default())).id();
     let c = world.spawn((Mesh3d(out_of_range), Cloth::default())).id();
     let d = world
         .spawn((Mesh3d(good.clone()), Cloth::default(), bad_settings))
         .id();
-    let e = world.spawn((Mesh3d(good), Cloth::pinned([99]))).id();
+    let e = world
+        .spawn((Mesh3d(good.clone()), Cloth::pinned([99])))
+        .id();
+    // Simulated on another mesh: that mesh is checked, and pins name its vertices (16 here,
+    // though 81 are drawn).
+    let f = world
+        .spawn((
+            Mesh3d(fine.clone()),
+            ClothSimulationMesh(nan),
+            Cloth::default(),
+        ))
+        .id();
+    let g = world
+        .spawn((
+            Mesh3d(fine.clone()),
+            ClothSimulationMesh(good.clone()),
+            Cloth::pinned([40]),
+        ))
+        .id();
     let ok = world.spawn((Mesh3d(other), Cloth::default())).id();
+    let ok_drawn_finer = world
+        .spawn((Mesh3d(fine), ClothSimulationMesh(good), Cloth::default()))
+        .id();
     for _ in 0..20 {
         app.update();
     }
@@ -198,10 +215,21 @@ fn bad_meshes_are_refused_with_an_error_component_and_the_app_keeps_running() {
         error(e),
         Some(ClothError::VertexOutOfRange { vertex: 99, .. })
     ));
-    // The good cloth next to them simulates.
+    assert_eq!(error(f), Some(ClothError::NonFinitePosition { vertex: 1 }));
+    assert_eq!(
+        error(g),
+        Some(ClothError::VertexOutOfRange {
+            vertex: 40,
+            vertex_count: 16
+        })
+    );
+    // The good cloths next to them simulate.
     let sim = app.world().get::<ClothSimulation>(ok).unwrap().solver();
     assert!(sim.is_finite());
     assert!(sim.state().positions[0].y < -0.1);
+    let drawn = positions(&app, ok_drawn_finer);
+    assert_eq!(drawn.len(), 81);
+    assert!(drawn.iter().all(|p| p.is_finite() && p.y < -0.1));
 }
 
 #[test]
@@ -1008,4 +1036,106 @@ fn bone_colliders_attach_by_name_to_any_hierarchy_once_it_is_there() {
     let again = proxies_of(&mut app);
     assert_eq!(again.len(), found.len());
     assert_eq!(again.iter().filter(|f| f.2 == 0.25).count(), 1);
+}
+
+/// A `Float32x3` attribute of the entity's mesh.
+fn attribute(app: &App, entity: Entity, name: bevy::mesh::MeshVertexAttribute) -> Vec<Vec3> {
+    let handle = &app.world().get::<Mesh3d>(entity).unwrap().0;
+    let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+    match mesh.attribute(name).unwrap() {
+        VertexAttributeValues::Float32x3(p) => p.iter().map(|&p| Vec3::from_array(p)).collect(),
+        _ => panic!("Float32x3"),
+    }
+}
+
+/// The largest angle between the normals of two triangles that share an edge, radians.
+fn sharpest_crease(positions: &[Vec3], indices: &[u32]) -> f32 {
+    let triangles: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    let normal = |t: [u32; 3]| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        (b - a).cross(c - a).normalize()
+    };
+    let mut by_edge = std::collections::HashMap::<[u32; 2], Vec<usize>>::new();
+    for (k, t) in triangles.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            by_edge.entry([a.min(b), a.max(b)]).or_default().push(k);
+        }
+    }
+    by_edge
+        .values()
+        .filter(|ts| ts.len() == 2)
+        .map(|ts| {
+            normal(triangles[ts[0]])
+                .dot(normal(triangles[ts[1]]))
+                .clamp(-1.0, 1.0)
+                .acos()
+        })
+        .fold(0.0, f32::max)
+}
+
+/// A cloth simulated on a coarse mesh and drawn with a finer one (`ClothSimulationMesh`).
+#[test]
+fn a_fine_mesh_drawn_over_a_coarse_simulation_follows_it_smoothly() {
+    let mut app = app();
+    // A 1 m sheet simulated with 7 x 7 particles, drawn with 37 x 37 vertices: every 6th
+    // drawn vertex lies on a particle at rest.
+    let coarse = GridDesc::square(1.0, 7, Vec3::ZERO);
+    let fine = GridDesc::square(1.0, 37, Vec3::ZERO);
+    let (coarse_mesh, fine_mesh) = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        (meshes.add(grid_mesh(&coarse)), meshes.add(grid_mesh(&fine)))
+    };
+    let pins = [coarse.index(0, 0), coarse.index(6, 0)];
+    let cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(fine_mesh),
+            ClothSimulationMesh(coarse_mesh),
+            Cloth::pinned(pins),
+            Transform::from_xyz(0.0, 1.0, 0.0),
+        ))
+        .id();
+    for _ in 0..81 {
+        app.update();
+    }
+    // Paused, the cloth is drawn at its last state rather than between the last two.
+    app.world_mut().resource_mut::<DrapeSettings>().paused = true;
+    for _ in 0..3 {
+        app.update();
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
+    assert_eq!(sim.state().positions.len(), 49);
+    let particles = sim.state().positions.clone();
+    let drawn = attribute(&app, cloth, Mesh::ATTRIBUTE_POSITION);
+    let normals = attribute(&app, cloth, Mesh::ATTRIBUTE_NORMAL);
+    assert_eq!(drawn.len(), 37 * 37);
+    assert!(drawn.iter().chain(&normals).all(|p| p.is_finite()));
+    assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4));
+    // The drawn vertices on particles are at the particles (the entity is at y = 1).
+    for j in 0..7 {
+        for i in 0..7 {
+            let particle = Vec3::from(particles[coarse.index(i, j) as usize]);
+            let vertex = drawn[fine.index(6 * i, 6 * j) as usize] + Vec3::Y;
+            assert!(
+                particle.distance(vertex) < 1e-4,
+                "particle ({i}, {j}) at {particle}, its vertex at {vertex}"
+            );
+        }
+    }
+    // The sheet hung down and is drawn smoother than its simulated facets.
+    assert!(particles.iter().any(|p| p.y < 0.5));
+    let fine_indices = fine.mesh().indices;
+    let coarse_positions: Vec<Vec3> = particles.iter().map(|&p| p.into()).collect();
+    let (drawn_crease, simulated_crease) = (
+        sharpest_crease(&drawn, &fine_indices),
+        sharpest_crease(&coarse_positions, &coarse.mesh().indices),
+    );
+    assert!(
+        drawn_crease < 0.5 * simulated_crease,
+        "drawn crease {drawn_crease} rad, simulated {simulated_crease} rad"
+    );
 }

@@ -9,6 +9,7 @@ pub(crate) mod batch;
 pub(crate) mod constraints;
 pub(crate) mod damping;
 pub(crate) mod debug_colors;
+pub(crate) mod embedding;
 pub(crate) mod flat_layout;
 pub(crate) mod garment;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
@@ -19,6 +20,7 @@ pub mod mesh;
 pub(crate) mod model;
 pub(crate) mod ordering;
 pub mod plugin;
+pub mod render_mesh;
 pub(crate) mod rest_paths;
 pub(crate) mod rims;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
@@ -35,6 +37,7 @@ pub mod wind_plugin;
 pub use air::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
 pub use damping::RigidMotion;
 pub use debug_colors::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
+pub use embedding::{EmbeddedVertex, Embedding};
 pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};

@@ -13,8 +13,9 @@ use bevy::transform::helper::TransformHelper;
 
 use super::debug_colors::{ClothPaint, DebugColorMode, PaintTarget, debug_colors};
 use super::flat_layout::FlatLayout;
-use super::mesh::compute_normals;
+use super::mesh::{vertex_normals, write_colors, write_normals};
 use super::model::ClothModel;
+use super::render_mesh::{ClothSimulationMesh, EmbeddedRender};
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSolver, Divergence};
 use super::weld::{default_tolerance, weld};
@@ -260,6 +261,8 @@ pub struct ClothSimulation {
     /// Its pose when the cloth was built, for resets.
     built_in_frame: Option<RigidPose>,
     warned_follow: bool,
+    /// The drawn mesh, when it is not the simulated one ([`ClothSimulationMesh`]).
+    render: Option<EmbeddedRender>,
 }
 
 impl ClothSimulation {
@@ -332,6 +335,7 @@ impl Plugin for ClothPlugin {
         crate::files::add_file_type::<ClothSettings, _>(app, schedule, build_cloths);
         app.register_type::<(
             Cloth,
+            ClothSimulationMesh,
             ClothSettings,
             DefaultClothSettings,
             ClothDebugColors,
@@ -349,8 +353,10 @@ impl Plugin for ClothPlugin {
     }
 }
 
+/// Builds the simulation of `mesh`, drawn with `render` if that is another mesh.
 fn build_simulation(
     mesh: &Mesh,
+    render: Option<&Mesh>,
     cloth: &Cloth,
     global: &GlobalTransform,
     density: f32,
@@ -390,6 +396,9 @@ fn build_simulation(
         }
     }
     sim.set_pins(&pinned)?;
+    let render = render
+        .map(|render| EmbeddedRender::new(render, &welded.positions, &sim.model().triangles))
+        .transpose()?;
     let render_from = sim.state().positions.clone();
     Ok((
         ClothSimulation {
@@ -414,6 +423,7 @@ fn build_simulation(
             followed: None,
             built_in_frame: None,
             warned_follow: false,
+            render,
         },
         warnings,
     ))
@@ -425,6 +435,7 @@ struct NewCloth {
     entity: Entity,
     cloth: &'static Cloth,
     mesh: &'static Mesh3d,
+    simulated: Option<&'static ClothSimulationMesh>,
     settings: Option<&'static ClothSettings>,
 }
 
@@ -439,13 +450,22 @@ fn build_cloths(
 ) {
     for item in &new_cloths {
         let (entity, cloth, mesh3d, settings) = (item.entity, item.cloth, item.mesh, item.settings);
-        let Some(mesh) = meshes.get(&mesh3d.0) else {
+        // The mesh simulated, and the one drawn if that is another.
+        let handles = match item.simulated {
+            Some(simulated) => [&simulated.0, &mesh3d.0],
+            None => [&mesh3d.0, &mesh3d.0],
+        };
+        let (Some(mesh), Some(drawn)) = (meshes.get(handles[0]), meshes.get(handles[1])) else {
             // A file that will never load: say which, once.
             if let Some(server) = &asset_server
-                && let LoadState::Failed(err) = server.load_state(&mesh3d.0)
+                && let Some((handle, err)) =
+                    handles.iter().find_map(|h| match server.load_state(*h) {
+                        LoadState::Failed(err) => Some((h, err)),
+                        _ => None,
+                    })
             {
                 let path = server
-                    .get_path(&mesh3d.0)
+                    .get_path(*handle)
                     .map_or_else(|| "(no path)".to_string(), |p| p.to_string());
                 let error = ClothError::MeshLoadFailed {
                     path,
@@ -456,11 +476,12 @@ fn build_cloths(
             }
             continue;
         };
+        let render = item.simulated.is_some().then_some(drawn);
         let density = settings.unwrap_or(&defaults.0).density;
         let global = transforms
             .compute_global_transform(entity)
             .unwrap_or_default();
-        match build_simulation(mesh, cloth, &global, density) {
+        match build_simulation(mesh, render, cloth, &global, density) {
             Ok((mut simulation, warnings)) => {
                 simulation.built_in_frame = cloth
                     .follow
@@ -472,8 +493,11 @@ fn build_cloths(
                 // The cloth writes into its mesh, so it gets a copy of its own, with vertex
                 // colours from the start (the mesh's own, or white): debug colours then only
                 // change values, never the vertex layout the renderer was prepared for.
-                let mut own_mesh = mesh.clone();
-                let vertices = simulation.vertex_to_particle.len();
+                let mut own_mesh = drawn.clone();
+                let vertices = simulation.render.as_ref().map_or(
+                    simulation.vertex_to_particle.len(),
+                    EmbeddedRender::vertex_count,
+                );
                 simulation.base_colors = match own_mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
                     Some(VertexAttributeValues::Float32x4(c)) if c.len() == vertices => c.clone(),
                     _ => vec![[1.0; 4]; vertices],
@@ -704,12 +728,6 @@ fn write_back_meshes(
             None => simulation.warned_paint = false,
         }
         let per_triangle = !simulation.colors.is_empty() && target == PaintTarget::Triangles;
-        simulation.flat.set(
-            &mut mesh,
-            per_triangle,
-            &simulation.vertex_to_particle,
-            &simulation.sim.model().triangles,
-        );
         let to_local = global.affine().inverse();
         // The followed entity's poses at the last two fixed steps and as drawn now.
         let frame = simulation.followed.zip(
@@ -719,22 +737,10 @@ fn write_back_meshes(
                 .and_then(world_pose),
         );
         let current = &simulation.sim.state().positions;
-        let map = simulation
-            .flat
-            .corner_to_particle()
-            .unwrap_or(&simulation.vertex_to_particle);
-        let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
-            mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
-        else {
-            continue;
-        };
-        if positions.len() != map.len()
-            || current.len() != simulation.render_from.len()
-            || map.iter().any(|&p| p as usize >= current.len())
-        {
+        if current.len() != simulation.render_from.len() {
             continue;
         }
-        // Interpolated particle positions in the mesh's frame.
+        // Interpolated particle positions in the mesh's frame, and their normals.
         simulation.local_positions.clear();
         simulation
             .local_positions
@@ -755,6 +761,50 @@ fn write_back_meshes(
                         to_local.transform_point3a(world).to_array()
                     }),
             );
+        let triangles = &simulation.sim.model().triangles;
+        vertex_normals(
+            &simulation.local_positions,
+            triangles,
+            &mut simulation.normals,
+        );
+        if let Some(render) = simulation.render.as_mut() {
+            // A finer mesh drawn over the simulated one.
+            let colors =
+                (!simulation.colors.is_empty()).then_some((&simulation.colors[..], target));
+            render.write(
+                &mut mesh,
+                &simulation.local_positions,
+                &simulation.normals,
+                triangles,
+                colors,
+                &mut simulation.vertex_colors,
+            );
+            let colors = if colors.is_some() {
+                &simulation.vertex_colors
+            } else {
+                &simulation.base_colors
+            };
+            write_colors(&mut mesh, colors);
+            continue;
+        }
+        simulation.flat.set(
+            &mut mesh,
+            per_triangle,
+            &simulation.vertex_to_particle,
+            triangles,
+        );
+        let map = simulation
+            .flat
+            .corner_to_particle()
+            .unwrap_or(&simulation.vertex_to_particle);
+        let Ok(Some(VertexAttributeValues::Float32x3(positions))) =
+            mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
+        else {
+            continue;
+        };
+        if positions.len() != map.len() || map.iter().any(|&p| p as usize >= current.len()) {
+            continue;
+        }
         for (out, &p) in positions.iter_mut().zip(map) {
             let at = simulation.local_positions[p as usize];
             if at.iter().all(|c| c.is_finite()) {
@@ -762,25 +812,10 @@ fn write_back_meshes(
             }
         }
         // Normals per particle (smooth across welded seams), then per vertex.
-        compute_normals(
-            &simulation.local_positions,
-            &simulation.sim.model().triangles,
-            &mut simulation.normals,
-        );
         let normals = map
             .iter()
             .map(|&p| simulation.normals[p as usize].to_array());
-        match mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_NORMAL) {
-            Ok(Some(VertexAttributeValues::Float32x3(out))) if out.len() == map.len() => {
-                for (out, n) in out.iter_mut().zip(normals) {
-                    *out = n;
-                }
-            }
-            _ => {
-                let normals: Vec<[f32; 3]> = normals.collect();
-                mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
-            }
-        }
+        write_normals(&mut mesh, normals);
         let colors = if simulation.colors.is_empty() {
             &simulation.base_colors
         } else {
@@ -803,12 +838,6 @@ fn write_back_meshes(
             }
             &simulation.vertex_colors
         };
-        if let Ok(Some(VertexAttributeValues::Float32x4(out))) =
-            mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_COLOR)
-            && out.len() == colors.len()
-            && out.as_slice() != colors.as_slice()
-        {
-            out.copy_from_slice(colors);
-        }
+        write_colors(&mut mesh, colors);
     }
 }

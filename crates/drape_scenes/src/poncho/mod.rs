@@ -16,6 +16,7 @@ use bevy::prelude::*;
 use bevy_drape::cloth::PonchoDesc;
 use bevy_drape::cloth::mesh::grid_mesh_from;
 use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
+use bevy_drape::cloth::render_mesh::ClothSimulationMesh;
 use bevy_drape::cloth::{DivergenceBounds, SolverSettings};
 use bevy_drape::collide::plugin::ClothCollider;
 use bevy_drape::schedule::DrapeSystems;
@@ -43,8 +44,12 @@ pub enum PonchoSource {
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct PonchoScene {
-    /// The poncho mesh. Default: `meshes/poncho.obj`.
+    /// The poncho mesh drawn (and simulated, unless `simulated` names another). Default:
+    /// `meshes/poncho.obj`.
     pub source: PonchoSource,
+    /// The mesh the poncho is simulated on, if not `source` ([`ClothSimulationMesh`]).
+    /// Default: `None`.
+    pub simulated: Option<PonchoSource>,
     /// The poncho's solver settings. Default: XPBD, 8 substeps x 2 iterations,
     /// self-collision on.
     pub solver: SolverSettings,
@@ -70,6 +75,7 @@ impl Default for PonchoScene {
     fn default() -> Self {
         Self {
             source: PonchoSource::Asset("meshes/poncho.obj".into()),
+            simulated: None,
             solver: SolverSettings {
                 self_collision: true,
                 ..SolverSettings::default()
@@ -387,7 +393,7 @@ fn spawn_poncho_scene(
     assets: Option<Res<AssetServer>>,
     mut meshes: ResMut<Assets<Mesh>>,
 ) {
-    let mesh = match &scene.source {
+    let mut mesh_of = |source: &PonchoSource| match source {
         PonchoSource::Asset(path) => match &assets {
             Some(assets) => assets.load(path.clone()),
             None => {
@@ -397,6 +403,8 @@ fn spawn_poncho_scene(
         },
         PonchoSource::Pattern(desc) => meshes.add(poncho_mesh(desc)),
     };
+    let mesh = mesh_of(&scene.source);
+    let simulated = scene.simulated.as_ref().map(mesh_of);
     let character = commands
         .spawn((
             Name::new("character"),
@@ -431,7 +439,7 @@ fn spawn_poncho_scene(
         ClothCollider::plane().with_friction(0.6),
         Transform::default(),
     ));
-    commands.spawn((
+    let mut poncho = commands.spawn((
         Name::new("poncho"),
         Poncho,
         Mesh3d(mesh),
@@ -445,6 +453,9 @@ fn spawn_poncho_scene(
         },
         Transform::from_xyz(0.0, scene.start_height, 0.0),
     ));
+    if let Some(simulated) = simulated {
+        poncho.insert(ClothSimulationMesh(simulated));
+    }
 }
 
 fn wave(
