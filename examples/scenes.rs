@@ -6,14 +6,16 @@
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
-//!     [--simulate-n 21] [--wind 10] [--gusts 0]
+//!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
 //! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
 //! `ClothSettings::inertia`; `--neck-radius` (or `--n`) makes the poncho from its pattern
-//! (`PonchoDesc`) instead of the shipped OBJ; `--simulate-n` simulates it on the pattern with
-//! that many vertices per side (`ClothSimulationMesh`) while the OBJ (or `--n`) is drawn.
+//! (`PonchoDesc`) instead of the shipped OBJ. The poncho is simulated on the coarse pattern
+//! (`meshes/poncho_coarse.obj`, `ClothSimulationMesh`) and drawn with the fine one;
+//! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
+//! `--simulate-drawn` (or `--n` alone) simulates what it draws.
 //!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
@@ -30,7 +32,9 @@
 
 use bevy::math::Vec3;
 use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
-use drape_scenes::poncho::{CharacterMotion, PonchoScene, PonchoSource, run_headless};
+use drape_scenes::poncho::{
+    COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, run_headless,
+};
 use drape_scenes::scenes::{
     Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, SheetDrop, median,
 };
@@ -62,6 +66,7 @@ fn run() -> Result<(), String> {
     let mut gusts = 0.0f32;
     let mut neck_radius: Option<f32> = None;
     let mut simulate_n: Option<u32> = None;
+    let mut simulate_drawn = false;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
         "mass-spring"
@@ -103,6 +108,7 @@ fn run() -> Result<(), String> {
             "--gusts" => gusts = parse(&value()?)?,
             "--neck-radius" => neck_radius = Some(parse(&value()?)?),
             "--simulate-n" => simulate_n = Some(parse(&value()?)?),
+            "--simulate-drawn" => simulate_drawn = true,
             "--no-air" => settings.air = None,
             other => return Err(format!("unknown option {other}")),
         }
@@ -213,25 +219,30 @@ fn run() -> Result<(), String> {
                 inertia,
                 ..PonchoScene::default()
             };
-            if n_given || neck_radius.is_some() {
+            // Drawn: the shipped OBJ, or the pattern with `--n` vertices and `--neck-radius`.
+            // Simulated: the shipped coarse OBJ, or the pattern with `--simulate-n` vertices,
+            // or with `--n` alone what is drawn.
+            let pattern = |vertices: u32| {
                 let default = PonchoDesc::default();
-                scene.source = PonchoSource::Pattern(PonchoDesc {
-                    vertices: if n_given { n } else { default.vertices },
-                    neck_radius: neck_radius.unwrap_or(default.neck_radius),
-                    ..default
-                });
-            } else {
-                // Run from the repository root, where the assets are.
-                scene.source = PonchoSource::Asset("meshes/poncho.obj".into());
-            }
-            if let Some(vertices) = simulate_n {
-                let default = PonchoDesc::default();
-                scene.simulated = Some(PonchoSource::Pattern(PonchoDesc {
+                PonchoSource::Pattern(PonchoDesc {
                     vertices,
                     neck_radius: neck_radius.unwrap_or(default.neck_radius),
                     ..default
-                }));
+                })
+            };
+            if n_given || neck_radius.is_some() {
+                scene.source = pattern(if n_given {
+                    n
+                } else {
+                    PonchoDesc::default().vertices
+                });
             }
+            scene.simulated = match (simulate_n, n_given || simulate_drawn, neck_radius) {
+                (Some(vertices), _, _) => Some(pattern(vertices)),
+                (None, true, _) => None,
+                (None, false, Some(_)) => Some(pattern(COARSE_PONCHO_VERTICES)),
+                (None, false, None) => PonchoScene::default().simulated,
+            };
             let run = run_headless(scene, frames)
                 .map_err(|e| format!("{e} (is the working directory the repository root?)"))?;
             println!("{}", run.json(&settings));

@@ -15,6 +15,7 @@ use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
 use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
+use bevy_drape::cloth::render_mesh::ClothSimulationMesh;
 use bevy_drape::collide::plugin::ClothCollider;
 use bevy_drape::prelude::{Clip, ClipDesc, FixedStepAnimation, humanoid};
 use bevy_drape::schedule::DrapeSystems;
@@ -159,6 +160,7 @@ fn dress(
             Name::new("poncho"),
             Poncho,
             Mesh3d(server.load("meshes/poncho.obj")),
+            ClothSimulationMesh(server.load("meshes/poncho_coarse.obj")),
             Cloth::worn_by(character),
             ClothSettings::default(),
             Transform::from_translation(transform.translation + Vec3::Y * scene.start_height)

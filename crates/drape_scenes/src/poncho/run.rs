@@ -38,6 +38,12 @@ pub struct PonchoRun {
     /// The farthest the poncho's centroid was from the chest bone horizontally after any
     /// step after the first [`SETTLE_SECONDS`], metres.
     pub max_centroid_offset: f32,
+    /// The poncho's centroid's horizontal distance from the chest bone after every step after
+    /// the first [`SETTLE_SECONDS`], metres.
+    pub centroid_offsets: Vec<f32>,
+    /// The mean height of the hem (the particles on the outline of the square at rest) after
+    /// every step after the first [`SETTLE_SECONDS`], metres above the ground.
+    pub hem_heights: Vec<f32>,
     /// The largest kinetic energy of the poncho after any step after the first
     /// [`SETTLE_SECONDS`], J.
     pub max_kinetic_energy: f32,
@@ -78,6 +84,8 @@ struct S3Line {
     step_max_compression_median: f32,
     edge_strain_p999: f32,
     max_centroid_offset: f32,
+    centroid_offset_median: f32,
+    hem_height_median: f32,
     max_kinetic_energy: f32,
     travelled: f32,
     divergences: u32,
@@ -121,6 +129,8 @@ impl PonchoRun {
             step_max_compression_median: median_f32(&self.step_max_compression),
             edge_strain_p999: self.edge_strain_percentile(0.999),
             max_centroid_offset: self.max_centroid_offset,
+            centroid_offset_median: median_f32(&self.centroid_offsets),
+            hem_height_median: median_f32(&self.hem_heights),
             max_kinetic_energy: self.max_kinetic_energy,
             travelled: self.travelled,
             divergences: self.divergences,
@@ -389,6 +399,18 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         run.step_max_stretch.push(stretch);
         run.step_max_compression.push(compression);
         run.max_kinetic_energy = run.max_kinetic_energy.max(sim.kinetic_energy());
+        let rest = &sim.model().rest_positions;
+        let half_side = rest
+            .iter()
+            .fold(0.0f32, |m, p| m.max(p.x.abs()).max(p.z.abs()));
+        let (sum, count) = rest
+            .iter()
+            .zip(x)
+            .filter(|(r, _)| r.x.abs().max(r.z.abs()) > half_side - 1e-3)
+            .fold((0.0, 0), |(sum, count), (_, p)| (sum + p.y, count + 1));
+        if count > 0 {
+            run.hem_heights.push(sum / count as f32);
+        }
         if let Some(chest) = chest
             && !x.is_empty()
         {
@@ -396,6 +418,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
                 Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32;
             let offset = (centroid - chest).with_y(0.0).length();
             run.max_centroid_offset = run.max_centroid_offset.max(offset);
+            run.centroid_offsets.push(offset);
         }
     }
 }
