@@ -153,7 +153,8 @@ fn ramp(t: f32) -> [f32; 4] {
     }
 }
 
-const GREY: [f32; 4] = [0.6, 0.6, 0.6, 1.0];
+/// The colour of what has no value to show (a particle or triangle a paint does not cover).
+pub(crate) const GREY: [f32; 4] = [0.6, 0.6, 0.6, 1.0];
 const RED: [f32; 4] = [0.95, 0.15, 0.1, 1.0];
 
 /// Fills `out` with the colours of `mode` for `sim` (empty for `Off`) and says whether they are

@@ -11,7 +11,7 @@ use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
-use super::debug_colors::{ClothPaint, DebugColorMode, PaintTarget, debug_colors};
+use super::debug_colors::{ClothPaint, DebugColorMode, GREY, PaintTarget, debug_colors};
 use super::flat_layout::FlatLayout;
 use super::mesh::{vertex_normals, write_colors, write_normals};
 use super::model::ClothModel;
@@ -829,7 +829,7 @@ fn write_back_meshes(
                         flat.model_triangle(corner)
                             .and_then(|t| colors.get(t))
                             .copied()
-                            .unwrap_or([0.6, 0.6, 0.6, 1.0])
+                            .unwrap_or(GREY)
                     }));
             } else {
                 simulation

@@ -8,7 +8,7 @@ use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::{Component, ReflectComponent};
 use bevy::reflect::Reflect;
 
-use super::debug_colors::PaintTarget;
+use super::debug_colors::{GREY, PaintTarget};
 use super::embedding::Embedding;
 use super::mesh::{vertex_normals, write_normals};
 use super::weld::{default_tolerance, weld};
@@ -109,24 +109,23 @@ impl EmbeddedRender {
         let Some((colors, target)) = colors else {
             return;
         };
-        let grey = [0.6, 0.6, 0.6, 1.0];
         let embedded = self.embedding.vertices();
         vertex_colors.extend(map.iter().map(|&p| {
             let Some(vertex) = embedded.get(p as usize) else {
-                return grey;
+                return GREY;
             };
             match target {
                 PaintTarget::Triangles => colors
                     .get(vertex.triangle as usize)
                     .copied()
-                    .unwrap_or(grey),
+                    .unwrap_or(GREY),
                 PaintTarget::Particles => {
                     let Some(corners) = triangles.get(vertex.triangle as usize) else {
-                        return grey;
+                        return GREY;
                     };
                     let mut blended = [0.0; 4];
                     for (&c, &w) in corners.iter().zip(&vertex.weights) {
-                        let color = colors.get(c as usize).copied().unwrap_or(grey);
+                        let color = colors.get(c as usize).copied().unwrap_or(GREY);
                         for k in 0..4 {
                             blended[k] += w * color[k];
                         }
