@@ -7,6 +7,7 @@
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0]
+//! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
@@ -16,6 +17,11 @@
 //! (`meshes/poncho_coarse.obj`, `ClothSimulationMesh`) and drawn with the fine one;
 //! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
 //! `--simulate-drawn` (or `--n` alone) simulates what it draws.
+//!
+//! `crowd` is S3 with `--characters` characters in ponchos in a row, walking, jogging, standing
+//! and teleporting (`PonchoScene::characters`), stepped on one thread and then on `--threads`
+//! (`DrapeSettings::max_threads`): the ms per fixed step of both, their ratio, and whether
+//! both runs gave the same figures bit for bit.
 //!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
@@ -31,9 +37,11 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy::math::Vec3;
+use bevy_drape::cloth::plugin::DrapeSettings;
 use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
 use drape_scenes::poncho::{
-    COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, run_headless,
+    COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, headless_app, run_app,
+    run_headless,
 };
 use drape_scenes::scenes::{
     Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, SheetDrop, median,
@@ -54,7 +62,7 @@ fn run() -> Result<(), String> {
     let mut frames: Option<u32> = None;
     let mut settings = match scene.as_str() {
         "drop" => SheetDrop::settings(false),
-        "s3" => PonchoScene::default().solver,
+        "s3" | "crowd" => PonchoScene::default().solver,
         "wind" => Flag::settings(),
         "collisions" => Collisions::settings(),
         _ => SolverSettings::default(),
@@ -67,6 +75,8 @@ fn run() -> Result<(), String> {
     let mut neck_radius: Option<f32> = None;
     let mut simulate_n: Option<u32> = None;
     let mut simulate_drawn = false;
+    let mut characters = 8u32;
+    let mut threads = 2usize;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
         "mass-spring"
@@ -110,6 +120,8 @@ fn run() -> Result<(), String> {
             "--simulate-n" => simulate_n = Some(parse(&value()?)?),
             "--simulate-drawn" => simulate_drawn = true,
             "--no-air" => settings.air = None,
+            "--characters" => characters = parse(&value()?)?,
+            "--threads" => threads = parse(&value()?)?,
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -126,7 +138,11 @@ fn run() -> Result<(), String> {
         }
     };
     settings.validate().map_err(|e| e.to_string())?;
-    let frames = frames.unwrap_or(if scene == "s3" { 600 } else { 120 });
+    let frames = frames.unwrap_or(if scene == "s3" || scene == "crowd" {
+        600
+    } else {
+        120
+    });
     if n < 2 {
         return Err("--n must be at least 2".into());
     }
@@ -246,6 +262,45 @@ fn run() -> Result<(), String> {
             let run = run_headless(scene, frames)
                 .map_err(|e| format!("{e} (is the working directory the repository root?)"))?;
             println!("{}", run.json(&settings));
+            Ok(())
+        }
+        "crowd" => {
+            let threads =
+                std::num::NonZeroUsize::new(threads).ok_or("--threads must be at least 1")?;
+            let mut runs = Vec::new();
+            for max_threads in [std::num::NonZeroUsize::MIN, threads] {
+                let mut app = headless_app(PonchoScene {
+                    solver: settings,
+                    characters,
+                    ..PonchoScene::default()
+                });
+                app.insert_resource(DrapeSettings {
+                    max_threads: Some(max_threads),
+                    ..DrapeSettings::default()
+                });
+                runs.push(
+                    run_app(app, frames).map_err(|e| {
+                        format!("{e} (is the working directory the repository root?)")
+                    })?,
+                );
+            }
+            let (one, many) = (&runs[0], &runs[1]);
+            let ms = |run: &drape_scenes::poncho::PonchoRun| (run.median_ms(4), run.median_ms(3));
+            let ((one_ms, one_cloth), (many_ms, many_cloth)) = (ms(one), ms(many));
+            let same = one.step_max_strain == many.step_max_strain
+                && one.centroid_offsets == many.centroid_offsets;
+            println!(
+                "{{\"scene\":\"crowd\",\"characters\":{characters},\"particles_each\":{},\"substeps\":{},\"iterations\":{},\"frames\":{frames},\"threads\":{threads},\"ms_per_frame_1\":{one_ms:.4},\"ms_cloth_1\":{one_cloth:.4},\"ms_per_frame_n\":{many_ms:.4},\"ms_cloth_n\":{many_cloth:.4},\"speedup\":{:.3},\"cloth_speedup\":{:.3},\"same_result\":{same},\"step_max_strain_median\":{:.6},\"deepest_penetration\":{:.6},\"divergences\":{},\"finite\":{}}}",
+                one.particles,
+                settings.substeps,
+                settings.iterations,
+                one_ms / many_ms,
+                one_cloth / many_cloth,
+                one.step_strain_median(),
+                one.deepest_penetration.max(many.deepest_penetration),
+                one.divergences + many.divergences,
+                one.finite && many.finite,
+            );
             Ok(())
         }
         "wind" => {

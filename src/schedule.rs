@@ -8,6 +8,7 @@
 //! [`DrapeSystems::Writeback`], in [`PostUpdate`] after transform propagation, interpolated
 //! between the last two fixed states.
 
+use crate::cloth::sim::StepTimings;
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
@@ -49,6 +50,13 @@ pub struct DrapeTimings {
     pub colliders: Duration,
     /// [`DrapeSystems::Step`].
     pub cloth: Duration,
+    /// The parts of the cloth stage, summed over the cloths (CPU time: with cloths stepped on
+    /// several threads, [`DrapeSettings::max_threads`](crate::cloth::plugin::DrapeSettings),
+    /// the sum can exceed [`DrapeTimings::cloth`]).
+    pub cloth_parts: StepTimings,
+    /// Writing the cloths into their meshes ([`DrapeSystems::Writeback`]), in the last
+    /// rendered frame.
+    pub write_back: Duration,
     /// Fixed steps measured so far.
     pub steps: u64,
     /// When the set before the stage being timed ended.

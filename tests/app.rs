@@ -1139,3 +1139,46 @@ fn a_fine_mesh_drawn_over_a_coarse_simulation_follows_it_smoothly() {
         "drawn crease {drawn_crease} rad, simulated {simulated_crease} rad"
     );
 }
+
+/// Independent cloths stepped on Bevy's compute task pool (`DrapeSettings::max_threads`)
+/// end where they end stepped one after another, bit for bit.
+#[test]
+fn cloths_stepped_on_several_threads_end_where_one_thread_leaves_them() {
+    let run = |threads: usize| {
+        let mut app = app();
+        app.insert_resource(DrapeSettings {
+            max_threads: std::num::NonZeroUsize::new(threads),
+            ..DrapeSettings::default()
+        });
+        app.world_mut().spawn((
+            ClothCollider::sphere(0.25),
+            Transform::from_xyz(0.0, -0.4, 0.0),
+        ));
+        let cloths: Vec<Entity> = (0..5u32)
+            .map(|i| {
+                let n = 6 + 2 * i;
+                let grid = GridDesc::square(0.8, n, Vec3::new(-0.4, 0.0, -0.4));
+                let pins = if i % 2 == 0 { vec![0] } else { vec![] };
+                spawn_cloth(
+                    &mut app,
+                    &grid,
+                    Cloth::pinned(pins),
+                    Transform::from_xyz(0.1 * i as f32, 0.0, 0.0),
+                )
+            })
+            .collect();
+        for _ in 0..40 {
+            app.update();
+        }
+        cloths
+            .iter()
+            .map(|&e| positions(&app, e))
+            .collect::<Vec<_>>()
+    };
+    let one = run(1);
+    let two = run(2);
+    assert!(one.iter().flatten().all(|p| p.is_finite()));
+    // They fell (and the pinned ones kept their pin).
+    assert!(one.iter().all(|c| c.iter().any(|p| p.y < -0.1)));
+    assert_eq!(one, two);
+}

@@ -293,3 +293,96 @@ fn a_thrown_mass_spring_cloth_hits_every_sphere_the_ground_and_the_walls_and_sta
         run.deepest_penetration
     );
 }
+
+/// A crowd's other characters: colliders whose swept bounds never meet the cloth's are left
+/// out before any particle is looked at, so they change nothing, bit for bit, while near ones
+/// (one resting, one sweeping in from 2 m away within a step) are met as before.
+#[test]
+fn colliders_far_from_the_cloth_change_nothing() {
+    let mut rng = drape_scenes::scan::Rng(0x5eed_c0de);
+    for case in 0..4 {
+        let n = 10 + 4 * case;
+        let grid = GridDesc::square(1.0, n, Vec3::new(-0.5, 0.8, -0.5));
+        let model = ClothModel::grid(&grid, DENSITY).unwrap();
+        let pose = |x: f32, y: f32, z: f32, turn: f32| RigidPose {
+            translation: Vec3A::new(x, y, z),
+            rotation: Quat::from_rotation_z(turn),
+        };
+        let resting = SolverCollider::fixed(
+            SolverShape::Sphere { radius: 0.3 },
+            pose(0.0, 0.3, 0.0, 0.0),
+        );
+        // Far away at the start of the step, through the sheet's corner by its end.
+        let mut sweeping = SolverCollider::fixed(
+            SolverShape::Capsule {
+                radius: 0.05,
+                half_length: 0.2,
+            },
+            pose(2.3, 0.79, 0.3, rng.range(0.0, 3.0)),
+        );
+        sweeping.end.translation = Vec3A::new(0.3, 0.79, 0.3);
+        sweeping.linear_velocity = (sweeping.end.translation - sweeping.start.translation) / DT;
+        let near = vec![resting, sweeping];
+        let mut crowd = Vec::new();
+        for _ in 0..40 {
+            // At least 3 m from the sheet in x or z, at random heights, sizes and turns.
+            let side = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+            let (a, b) = (side * rng.range(3.5, 20.0), rng.range(-20.0, 20.0));
+            let (x, z) = if rng.uniform() < 0.5 { (a, b) } else { (b, a) };
+            let shape = if rng.uniform() < 0.5 {
+                SolverShape::Sphere {
+                    radius: rng.range(0.05, 0.5),
+                }
+            } else {
+                SolverShape::Capsule {
+                    radius: rng.range(0.03, 0.2),
+                    half_length: rng.range(0.05, 0.5),
+                }
+            };
+            let (y, turn) = (rng.range(0.0, 2.0), rng.range(0.0, 3.0));
+            crowd.push(SolverCollider::fixed(shape, pose(x, y, z, turn)));
+        }
+        // The crowd first, so that the near colliders' indices differ between the runs.
+        let with_crowd: Vec<SolverCollider> = crowd.iter().chain(&near).cloned().collect();
+        let settings = SolverSettings::default();
+        let run = |colliders: &[SolverCollider]| {
+            let mut sim = ClothSolver::new(model.clone());
+            let mut contacts = 0;
+            for step in 0..40 {
+                // The capsule sweeps in on the third step only and stays in the sheet after.
+                let mut colliders = colliders.to_vec();
+                if step != 2 {
+                    let last = colliders.last_mut().unwrap();
+                    let at = if step < 2 { last.start } else { last.end };
+                    *last = SolverCollider::fixed(last.shape.clone(), at);
+                }
+                sim.set_colliders(&colliders).unwrap();
+                sim.step(&settings, GRAVITY, DT).unwrap();
+                contacts += sim.contact_count();
+                if step == 2 {
+                    // The capsule that swept in from 2 m away holds the sheet, nothing inside.
+                    let capsule = colliders.last().unwrap();
+                    let d: Vec<f32> = sim
+                        .state()
+                        .positions
+                        .iter()
+                        .filter_map(|&p| capsule.signed_distance(p, 0.05))
+                        .collect();
+                    let touching = d.iter().filter(|&&d| d < 0.02).count();
+                    let deepest = d.iter().fold(0.0f32, |m, &d| m.max(-d));
+                    assert!(touching > 0 && deepest <= 1e-5, "{touching} {deepest}");
+                }
+            }
+            (sim, contacts)
+        };
+        let (alone, contacts) = run(&near);
+        let (among, _) = run(&with_crowd);
+        assert!(contacts > 0, "case {case}: the near colliders were met");
+        assert_eq!(
+            alone.state().positions,
+            among.state().positions,
+            "case {case}: the far colliders changed the cloth"
+        );
+        assert_eq!(alone.state().velocities, among.state().velocities);
+    }
+}

@@ -17,7 +17,7 @@ use super::mesh::{vertex_normals, write_colors, write_normals};
 use super::model::ClothModel;
 use super::render_mesh::{ClothSimulationMesh, EmbeddedRender};
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use super::sim::{ClothSolver, Divergence};
+use super::sim::{ClothSolver, Divergence, StepTimings};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
 use crate::collide::{
@@ -25,7 +25,7 @@ use crate::collide::{
 };
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
-use crate::schedule::{DrapeSchedule, DrapeSystems};
+use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
 
 /// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world
 /// space, through the entity's transform) in the first fixed step after the mesh is loaded;
@@ -208,6 +208,12 @@ pub struct DrapeSettings {
     /// carried along rigidly. `None` takes every pose change as motion. Default:
     /// [`Teleport::default`] (1 m or 60 degrees in one step).
     pub teleport: Option<Teleport>,
+    /// The most threads that step cloths at once. `1` steps them one after another on the
+    /// schedule's thread; more step independent cloths at the same time on Bevy's
+    /// [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool) (its threads and the caller's). Every
+    /// cloth is stepped alike either way: results do not depend on the count. `None` uses
+    /// every thread of the pool. Default: `None`.
+    pub max_threads: Option<std::num::NonZeroUsize>,
 }
 
 impl Default for DrapeSettings {
@@ -216,6 +222,7 @@ impl Default for DrapeSettings {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             paused: false,
             teleport: Some(Teleport::default()),
+            max_threads: None,
         }
     }
 }
@@ -517,7 +524,10 @@ fn build_cloths(
 }
 
 /// Moves pins and attachments to this step's targets, steps every cloth and checks it for
-/// divergence.
+/// divergence: one cloth after another on this thread, or with [`DrapeSettings::max_threads`]
+/// above one, independent cloths at the same time on Bevy's compute task pool (each cloth is
+/// stepped exactly as on one thread, so the result does not depend on the thread count).
+#[allow(clippy::type_complexity)]
 fn step_cloths(
     mut cloths: Query<(Entity, &Cloth, &mut ClothSimulation, Option<&ClothSettings>)>,
     defaults: Res<DefaultClothSettings>,
@@ -525,163 +535,240 @@ fn step_cloths(
     time: Res<Time>,
     transforms: TransformHelper,
     mut diverged: MessageWriter<ClothDiverged>,
-    (colliders, wind): (Option<Res<StepColliders>>, Option<Res<StepWind>>),
+    (colliders, wind, timings): (
+        Option<Res<StepColliders>>,
+        Option<Res<StepWind>>,
+        Option<ResMut<DrapeTimings>>,
+    ),
 ) {
-    let dt = time.delta_secs();
-    for (entity, cloth, mut simulation, settings) in &mut cloths {
-        let simulation = &mut *simulation;
-        let settings = settings.unwrap_or(&defaults.0);
-        let sim = &mut simulation.sim;
-        simulation.render_from.clone_from(&sim.state().positions);
-        if drape.paused {
-            continue;
-        }
-        if let Some(frozen_with) = &simulation.frozen_with {
-            if frozen_with == settings {
-                continue;
-            }
-            info!("cloth {entity}: settings changed, stepping again");
-            simulation.frozen_with = None;
-        }
-        if let Err(err) = settings.solver.validate() {
-            if !simulation.warned_invalid_settings {
-                warn!("cloth {entity} is not stepped: {err}");
-                simulation.warned_invalid_settings = true;
-            }
-            continue;
-        }
-        simulation.warned_invalid_settings = false;
-        if settings.density != sim.model().density
-            && let Err(err) = sim.set_density(settings.density)
-        {
-            warn!(
-                "cloth {entity}: {err}; keeping density {}",
-                sim.model().density
-            );
-        }
-        // The world's colliders, then this cloth's ground and container.
-        simulation.colliders.clear();
-        simulation
-            .colliders
-            .extend_from_slice(colliders.as_ref().map_or(&[], |c| &c.colliders));
-        settings.plane_colliders(&mut simulation.colliders);
-        // The world's colliders were checked when gathered (each reported with its entity);
-        // what is left out here is this cloth's own ground or container.
-        match sim.set_colliders(&simulation.colliders) {
-            Err(err) if !simulation.warned_planes => {
-                warn!("cloth {entity}: its ground or container is left out: {err}");
-                simulation.warned_planes = true;
-            }
-            Err(_) => {}
-            Ok(()) => simulation.warned_planes = false,
-        }
-
-        if let Ok(global) = transforms.compute_global_transform(entity) {
-            for &v in &cloth.pinned_vertices {
-                if let (Some(&rest), Some(&p)) = (
-                    simulation.local_rest.get(v as usize),
-                    simulation.vertex_to_particle.get(v as usize),
-                ) {
-                    sim.set_pin_target(p, global.transform_point(rest));
+    let context = StepContext {
+        defaults: &defaults.0,
+        drape: &drape,
+        dt: time.delta_secs(),
+        elapsed: time.elapsed_secs(),
+        transforms: &transforms,
+        colliders: colliders.as_deref().map_or(&[], |c| &c.colliders),
+        wind: wind.as_deref().map(|w| &w.0),
+    };
+    let pool = bevy::tasks::ComputeTaskPool::try_get();
+    // The scope's own thread works too.
+    let available = pool.map_or(1, |p| p.thread_num() + 1);
+    let threads = drape
+        .max_threads
+        .map_or(available, |cap| cap.get().min(available))
+        .min(cloths.iter().len());
+    match pool {
+        Some(pool) if threads > 1 => {
+            let mut all: Vec<_> = cloths.iter_mut().collect();
+            let chunk = all.len().div_ceil(threads);
+            let context = &context;
+            let results = pool.scope(|scope| {
+                for chunk in all.chunks_mut(chunk) {
+                    scope.spawn(async move {
+                        chunk
+                            .iter_mut()
+                            .filter_map(|(entity, cloth, simulation, settings)| {
+                                step_cloth(*entity, cloth, simulation, *settings, context)
+                            })
+                            .collect::<Vec<_>>()
+                    });
                 }
-            }
-        }
-        for attachment in &cloth.attachments {
-            match transforms.compute_global_transform(attachment.target) {
-                Ok(target) => {
-                    if let Some(&p) = simulation
-                        .vertex_to_particle
-                        .get(attachment.vertex as usize)
-                    {
-                        sim.set_pin_target(p, target.transform_point(attachment.offset));
-                    }
-                }
-                Err(err) => warn!(
-                    "cloth {entity}: attachment of vertex {} to {}: {err}",
-                    attachment.vertex, attachment.target
-                ),
-            }
-        }
-
-        // The entity the cloth follows: its motion over this step, a share of it carried.
-        simulation.followed = None;
-        if let Some(target) = cloth.follow {
-            match transforms
-                .compute_global_transform(target)
-                .ok()
-                .and_then(|g| world_pose(&g))
-            {
-                Some(pose) => {
-                    let frame = simulation.follow.step(pose, dt, drape.teleport.as_ref());
-                    sim.follow_frame(&frame, settings.inertia);
-                    simulation.followed = Some(frame);
-                    simulation.warned_follow = false;
-                }
-                None => {
-                    if !simulation.warned_follow {
-                        warn!(
-                            "cloth {entity} follows {target}, which has no valid transform: \
-                             simulated in the world alone"
-                        );
-                        simulation.warned_follow = true;
-                    }
-                    simulation.follow.reset();
-                }
-            }
-        }
-
-        if settings.solver.air.is_some()
-            && let Some(wind) = &wind
-        {
-            sim.set_wind(&wind.0, time.elapsed_secs());
-        }
-        if let Err(err) = sim.step(&settings.solver, drape.gravity, dt) {
-            if !simulation.warned_step_input {
-                warn!("cloth {entity} is not stepped: {err}");
-                simulation.warned_step_input = true;
-            }
-            continue;
-        }
-        simulation.warned_step_input = false;
-        if settings.solver.volume.is_some()
-            && let Some(err) = sim.volume_error()
-            && !simulation.warned_volume
-        {
-            warn!("cloth {entity}: {err}; stepped without it");
-            simulation.warned_volume = true;
-        }
-
-        if let Some(divergence) = sim.divergence(&settings.divergence) {
-            let method = settings.solver.method;
-            match settings.on_divergence {
-                OnDivergence::Freeze => {
-                    error!(
-                        "cloth {entity} diverged with {} ({divergence}); frozen at the previous \
-                         step until its settings change",
-                        method.name()
-                    );
-                    let state = sim.state_mut();
-                    state.positions.clone_from(&simulation.render_from);
-                    state.previous_positions.clone_from(&simulation.render_from);
-                    state.velocities.fill(Vec3A::ZERO);
-                    simulation.frozen_with = Some(*settings);
-                }
-                OnDivergence::Reset => {
-                    error!(
-                        "cloth {entity} diverged with {} ({divergence}); reset to its rest shape",
-                        method.name()
-                    );
-                    simulation.reset();
-                }
-            }
-            diverged.write(ClothDiverged {
-                cloth: entity,
-                method,
-                divergence,
-                response: settings.on_divergence,
             });
+            diverged.write_batch(results.into_iter().flatten());
+        }
+        _ => {
+            for (entity, cloth, mut simulation, settings) in &mut cloths {
+                if let Some(d) = step_cloth(entity, cloth, &mut simulation, settings, &context) {
+                    diverged.write(d);
+                }
+            }
         }
     }
+    if let Some(mut timings) = timings {
+        let mut parts = StepTimings::default();
+        for (_, _, simulation, _) in &cloths {
+            parts.add(simulation.sim.last_timings());
+        }
+        timings.cloth_parts = parts;
+    }
+}
+
+/// What every cloth's step reads from the world.
+struct StepContext<'a> {
+    defaults: &'a ClothSettings,
+    drape: &'a DrapeSettings,
+    dt: f32,
+    elapsed: f32,
+    transforms: &'a TransformHelper<'a, 'a>,
+    colliders: &'a [SolverCollider],
+    wind: Option<&'a super::air::WindField>,
+}
+
+/// Steps one cloth (see [`step_cloths`]); what it diverged with, if it did.
+fn step_cloth(
+    entity: Entity,
+    cloth: &Cloth,
+    simulation: &mut ClothSimulation,
+    settings: Option<&ClothSettings>,
+    context: &StepContext,
+) -> Option<ClothDiverged> {
+    let dt = context.dt;
+    let settings = settings.unwrap_or(context.defaults);
+    let sim = &mut simulation.sim;
+    simulation.render_from.clone_from(&sim.state().positions);
+    if context.drape.paused {
+        return None;
+    }
+    if let Some(frozen_with) = &simulation.frozen_with {
+        if frozen_with == settings {
+            return None;
+        }
+        info!("cloth {entity}: settings changed, stepping again");
+        simulation.frozen_with = None;
+    }
+    if let Err(err) = settings.solver.validate() {
+        if !simulation.warned_invalid_settings {
+            warn!("cloth {entity} is not stepped: {err}");
+            simulation.warned_invalid_settings = true;
+        }
+        return None;
+    }
+    simulation.warned_invalid_settings = false;
+    if settings.density != sim.model().density
+        && let Err(err) = sim.set_density(settings.density)
+    {
+        warn!(
+            "cloth {entity}: {err}; keeping density {}",
+            sim.model().density
+        );
+    }
+    // The world's colliders, then this cloth's ground and container.
+    simulation.colliders.clear();
+    simulation.colliders.extend_from_slice(context.colliders);
+    settings.plane_colliders(&mut simulation.colliders);
+    // The world's colliders were checked when gathered (each reported with its entity);
+    // what is left out here is this cloth's own ground or container.
+    match sim.set_colliders(&simulation.colliders) {
+        Err(err) if !simulation.warned_planes => {
+            warn!("cloth {entity}: its ground or container is left out: {err}");
+            simulation.warned_planes = true;
+        }
+        Err(_) => {}
+        Ok(()) => simulation.warned_planes = false,
+    }
+
+    if let Ok(global) = context.transforms.compute_global_transform(entity) {
+        for &v in &cloth.pinned_vertices {
+            if let (Some(&rest), Some(&p)) = (
+                simulation.local_rest.get(v as usize),
+                simulation.vertex_to_particle.get(v as usize),
+            ) {
+                sim.set_pin_target(p, global.transform_point(rest));
+            }
+        }
+    }
+    for attachment in &cloth.attachments {
+        match context
+            .transforms
+            .compute_global_transform(attachment.target)
+        {
+            Ok(target) => {
+                if let Some(&p) = simulation
+                    .vertex_to_particle
+                    .get(attachment.vertex as usize)
+                {
+                    sim.set_pin_target(p, target.transform_point(attachment.offset));
+                }
+            }
+            Err(err) => warn!(
+                "cloth {entity}: attachment of vertex {} to {}: {err}",
+                attachment.vertex, attachment.target
+            ),
+        }
+    }
+
+    // The entity the cloth follows: its motion over this step, a share of it carried.
+    simulation.followed = None;
+    if let Some(target) = cloth.follow {
+        match context
+            .transforms
+            .compute_global_transform(target)
+            .ok()
+            .and_then(|g| world_pose(&g))
+        {
+            Some(pose) => {
+                let frame = simulation
+                    .follow
+                    .step(pose, dt, context.drape.teleport.as_ref());
+                sim.follow_frame(&frame, settings.inertia);
+                simulation.followed = Some(frame);
+                simulation.warned_follow = false;
+            }
+            None => {
+                if !simulation.warned_follow {
+                    warn!(
+                        "cloth {entity} follows {target}, which has no valid transform: \
+                         simulated in the world alone"
+                    );
+                    simulation.warned_follow = true;
+                }
+                simulation.follow.reset();
+            }
+        }
+    }
+
+    if settings.solver.air.is_some()
+        && let Some(wind) = context.wind
+    {
+        sim.set_wind(wind, context.elapsed);
+    }
+    if let Err(err) = sim.step(&settings.solver, context.drape.gravity, dt) {
+        if !simulation.warned_step_input {
+            warn!("cloth {entity} is not stepped: {err}");
+            simulation.warned_step_input = true;
+        }
+        return None;
+    }
+    simulation.warned_step_input = false;
+    if settings.solver.volume.is_some()
+        && let Some(err) = sim.volume_error()
+        && !simulation.warned_volume
+    {
+        warn!("cloth {entity}: {err}; stepped without it");
+        simulation.warned_volume = true;
+    }
+
+    if let Some(divergence) = sim.divergence(&settings.divergence) {
+        let method = settings.solver.method;
+        match settings.on_divergence {
+            OnDivergence::Freeze => {
+                error!(
+                    "cloth {entity} diverged with {} ({divergence}); frozen at the previous \
+                     step until its settings change",
+                    method.name()
+                );
+                let state = sim.state_mut();
+                state.positions.clone_from(&simulation.render_from);
+                state.previous_positions.clone_from(&simulation.render_from);
+                state.velocities.fill(Vec3A::ZERO);
+                simulation.frozen_with = Some(*settings);
+            }
+            OnDivergence::Reset => {
+                error!(
+                    "cloth {entity} diverged with {} ({divergence}); reset to its rest shape",
+                    method.name()
+                );
+                simulation.reset();
+            }
+        }
+        return Some(ClothDiverged {
+            cloth: entity,
+            method,
+            divergence,
+            response: settings.on_divergence,
+        });
+    }
+    None
 }
 
 /// Writes every cloth into its mesh, interpolated between the last two fixed steps: in the
@@ -701,7 +788,9 @@ fn write_back_meshes(
     mut meshes: ResMut<Assets<Mesh>>,
     fixed: Res<Time<Fixed>>,
     debug: Res<ClothDebugColors>,
+    timings: Option<ResMut<DrapeTimings>>,
 ) {
+    let start = std::time::Instant::now();
     let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
     for (entity, mut simulation, cloth, mesh3d, global, paint) in &mut cloths {
         let simulation = &mut *simulation;
@@ -839,5 +928,8 @@ fn write_back_meshes(
             &simulation.vertex_colors
         };
         write_colors(&mut mesh, colors);
+    }
+    if let Some(mut timings) = timings {
+        timings.write_back = start.elapsed();
     }
 }

@@ -87,6 +87,9 @@ pub(crate) struct ContactScratch {
     start_poses: Vec<RigidPose>,
     poses: Vec<RigidPose>,
     bounds: Vec<Option<Aabb>>,
+    /// The colliders whose swept bounds meet the cloth's in the current substep (a crowd's
+    /// other characters are left out before any particle is looked at).
+    near: Vec<u32>,
 }
 
 impl ContactScratch {
@@ -117,8 +120,17 @@ impl ContactScratch {
     }
 
     /// Prepares a substep from a fraction `t_start` to `t_end` of the step: poses at both,
-    /// no contacts.
-    pub(crate) fn begin_substep(&mut self, colliders: &[SolverCollider], t_start: f32, t_end: f32) {
+    /// no contacts, and the colliders near the cloth. `x` are the predicted positions, `x_prev`
+    /// those at the start of the substep: the cloth's box spans both, grown by the largest move
+    /// between them, which the constraints do not carry a particle beyond.
+    pub(crate) fn begin_substep(
+        &mut self,
+        colliders: &[SolverCollider],
+        t_start: f32,
+        t_end: f32,
+        x: &[Vec3A],
+        x_prev: &[Vec3A],
+    ) {
         for ((start, end), c) in self
             .start_poses
             .iter_mut()
@@ -132,6 +144,24 @@ impl ContactScratch {
             *held = c.normal;
         }
         self.contacts.fill(Contact::EMPTY);
+        let (mut cloth, mut travel) = (Aabb::EMPTY, 0.0f32);
+        for (&p, &q) in x.iter().zip(x_prev) {
+            cloth = cloth.grown(p).grown(q);
+            travel = travel.max(p.distance_squared(q));
+        }
+        let grow = Vec3A::splat(travel.sqrt());
+        let cloth = Aabb {
+            min: cloth.min - grow,
+            max: cloth.max + grow,
+        };
+        self.near.clear();
+        self.near.extend(
+            self.bounds
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| b.is_none_or(|b| b.overlaps(&cloth)))
+                .map(|(k, _)| k as u32),
+        );
     }
 
     /// The colliders' poses at the start and the end of the current substep.
@@ -158,7 +188,9 @@ impl ContactScratch {
         thickness: f32,
         friction_step: Option<f32>,
     ) {
-        for (k, collider) in colliders.iter().enumerate() {
+        for &k in &self.near {
+            let k = k as usize;
+            let collider = &colliders[k];
             let pose = self.poses[k];
             let start_pose = self.start_poses[k];
             let bounds = self.bounds[k];

@@ -164,6 +164,17 @@ fn panel(
                 ms(timings.colliders),
                 ms(timings.cloth)
             ));
+            let parts = &timings.cloth_parts;
+            ui.label(format!(
+                "cloth: predict {:.2}, constraints {:.2}, self-collision {:.2}, contacts {:.2}, \
+                 air {:.2}; write-back {:.2} ms",
+                ms(parts.predict),
+                ms(parts.constraints),
+                ms(parts.self_collision),
+                ms(parts.contacts),
+                ms(parts.air),
+                ms(timings.write_back)
+            ));
 
             ui.separator();
             let selected_name = names

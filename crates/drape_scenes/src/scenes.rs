@@ -520,7 +520,8 @@ impl Flag {
             sim.step(settings, GRAVITY, dt)
                 .expect("the scene runs with valid settings");
             run.frame_seconds.push(start.elapsed().as_secs_f64());
-            run.air_seconds.push(wind_seconds + sim.last_air_seconds());
+            run.air_seconds
+                .push(wind_seconds + sim.last_timings().air.as_secs_f64());
             run.finite &= sim.is_finite();
             run.strains.push(sim.strain().max);
             run.directions.push(self.direction(&sim));

@@ -26,9 +26,12 @@ use crate::error::{ClothError, ColliderError};
 mod diagnostics;
 mod passes;
 mod step;
+mod timings;
 
 pub use diagnostics::{Divergence, StrainStats};
 use passes::JacobiScratch;
+use timings::Laps;
+pub use timings::StepTimings;
 
 /// How many nearest pinned particles each free particle is tethered to.
 const TETHERS_PER_PARTICLE: usize = 4;
@@ -118,8 +121,8 @@ pub struct ClothSolver {
     particle_wind: Vec<Vec3A>,
     /// The air's acceleration of each particle over the current step.
     air_acceleration: Vec<Vec3A>,
-    /// Wall time of the last step's air forces, seconds.
-    air_seconds: f64,
+    /// Wall time of the last step's parts.
+    timings: StepTimings,
     /// The carried share of the followed frame's motion over the coming step
     /// ([`ClothSolver::follow_frame`]): the state's velocities are relative to it, so the
     /// wind is too.
@@ -210,17 +213,15 @@ impl ClothSolver {
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
-            air_seconds: 0.0,
+            timings: StepTimings::default(),
             carried: None,
             relative_wind: vec![Vec3A::ZERO; n],
         }
     }
 
-    /// Wall time the last step spent on the air's forces (the substeps' kicks left out),
-    /// seconds (feature `internals`).
-    #[cfg(feature = "internals")]
-    pub fn last_air_seconds(&self) -> f64 {
-        self.air_seconds
+    /// Where the last step spent its time ([`StepTimings`]).
+    pub fn last_timings(&self) -> &StepTimings {
+        &self.timings
     }
 
     /// Samples `wind` at time `t` (seconds) at every particle for the coming steps (the air
@@ -636,8 +637,9 @@ impl ClothSolver {
         }
         self.sync_weights();
         let carried = self.carried.take();
+        self.timings = StepTimings::default();
+        let mut laps = Laps::start();
         if let Some(air) = settings.air.filter(|air| air.is_active()) {
-            let start = std::time::Instant::now();
             let state = &self.state;
             // Velocities are relative to the carried share of the followed frame's motion:
             // so must the wind be.
@@ -666,11 +668,12 @@ impl ClothSolver {
                 dt,
                 &mut self.air_acceleration,
             );
-            self.air_seconds = start.elapsed().as_secs_f64();
+            self.timings.air = laps.lap();
         }
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
+            self.timings.self_collision = laps.lap();
         }
         match settings
             .adaptive

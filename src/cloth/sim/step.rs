@@ -34,6 +34,7 @@ use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::ClothSolver;
 use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
+use super::timings::{Laps, StepTimings};
 use crate::cloth::constraints::{Projection, project_bending};
 use crate::cloth::mass_spring::auto_substeps;
 use crate::cloth::rims::project_rim;
@@ -164,6 +165,7 @@ impl ClothSolver {
             .self_collision
             .as_ref()
             .filter(|_| settings.self_collision);
+        let mut laps = Laps::start();
         self.contacts
             .begin_step(colliders, x.len(), settings.thickness);
         self.thin_contacts.begin_step(
@@ -176,6 +178,10 @@ impl ClothSolver {
             settings.thickness,
         );
         let thin_contacts = self.thin_contacts.has_candidates();
+        let mut t = StepTimings {
+            contacts: laps.lap(),
+            ..StepTimings::default()
+        };
 
         for s in 0..substeps {
             // 1. Predict (the air's share first, as a kick: it is constant over the step).
@@ -237,11 +243,19 @@ impl ClothSolver {
                 }
             }
 
+            t.predict += laps.lap();
+
             // 2. Project.
             if !colliders.is_empty() {
-                self.contacts
-                    .begin_substep(colliders, s as f32 / substeps as f32, t_end);
+                self.contacts.begin_substep(
+                    colliders,
+                    s as f32 / substeps as f32,
+                    t_end,
+                    x,
+                    x_prev,
+                );
                 self.thin_contacts.begin_substep();
+                t.contacts += laps.lap();
             }
             let mut volume = match (settings.volume, self.volume.as_mut()) {
                 (Some(v), Some(Ok(constraint))) if !mass_spring => {
@@ -321,6 +335,7 @@ impl ClothSolver {
                         project_bending(x, w, pair.particles, pair.rest_angle, bend, lambda);
                     }
                 }
+                t.constraints += laps.lap();
                 // Self-collision before the colliders, so that pushing layers apart never
                 // leaves a particle inside a collider. Mass-spring's is discrete: the
                 // correction also changes the velocity.
@@ -330,6 +345,7 @@ impl ClothSolver {
                     if iteration + 1 == iterations {
                         self.self_contacts = self.self_contacts.max(touching);
                     }
+                    t.self_collision += laps.lap();
                 }
                 if !colliders.is_empty() {
                     self.contacts.project(
@@ -353,6 +369,7 @@ impl ClothSolver {
                             settings.thickness,
                         );
                     }
+                    t.contacts += laps.lap();
                 }
             }
 
@@ -384,6 +401,8 @@ impl ClothSolver {
                 }
             }
 
+            t.predict += laps.lap();
+
             // 4. Contacts: restitution (and mass-spring's friction) relative to each collider's
             //    surface, then damping.
             if !colliders.is_empty() {
@@ -396,8 +415,11 @@ impl ClothSolver {
                     bounce_threshold,
                     friction_step.is_some(),
                 );
+                t.contacts += laps.lap();
             }
             damp(settings, damping_k, x, v, w, &self.free_masses);
+            t.predict += laps.lap();
         }
+        self.timings.add(&t);
     }
 }

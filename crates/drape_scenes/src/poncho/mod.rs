@@ -28,7 +28,7 @@ use bevy_drape::skeleton::plugin::{
 
 mod run;
 
-pub use run::{LOAD_TIMEOUT, PonchoRun, STRAIN_BIN, headless_app, run_headless};
+pub use run::{LOAD_TIMEOUT, PonchoRun, STRAIN_BIN, headless_app, run_app, run_headless};
 
 /// Vertices per side of the coarse poncho the scene simulates (`meshes/poncho_coarse.obj`):
 /// it drapes like the drawn 41 x 41 one (the hem's height and the centroid's offset from the
@@ -71,6 +71,9 @@ pub struct PonchoScene {
     pub motion: CharacterMotion,
     /// The poncho's [`ClothSettings::inertia`]. Default: `1.0`.
     pub inertia: f32,
+    /// Characters in ponchos, standing in a row along +X 4 m apart: the first makes
+    /// `motion`, the others [`CROWD_MOTIONS`] in turn (the `crowd` scene). Default: `1`.
+    pub characters: u32,
     /// When the poncho counts as diverged. Default: strain 200%, speed 500 m/s. Walking, its
     /// collar can snag on the neck and stretch one edge past 100% for a few steps (the
     /// largest seen in 100,000 steps of walking was 134%, after which it let go); a method
@@ -92,6 +95,7 @@ impl Default for PonchoScene {
             wave: true,
             motion: CharacterMotion::InPlace,
             inertia: 1.0,
+            characters: 1,
             divergence: DivergenceBounds {
                 max_strain: 2.0,
                 ..DivergenceBounds::default()
@@ -207,6 +211,18 @@ impl CharacterMotion {
         }
     }
 }
+
+/// The motions of the characters after the first in a crowd ([`PonchoScene::characters`]),
+/// in turn.
+pub const CROWD_MOTIONS: [CharacterMotion; 4] = [
+    CharacterMotion::Walk,
+    CharacterMotion::Jog,
+    CharacterMotion::InPlace,
+    CharacterMotion::Teleport,
+];
+
+/// How far apart the characters of a crowd stand, metres.
+const CROWD_SPACING: f32 = 4.0;
 
 /// The character stands this long before it starts to move (walk, jog) or jump (teleport),
 /// so the poncho settles on it first, seconds.
@@ -412,56 +428,71 @@ fn spawn_poncho_scene(
     };
     let mesh = mesh_of(&scene.source);
     let simulated = scene.simulated.as_ref().map(mesh_of);
-    let character = commands
-        .spawn((
-            Name::new("character"),
-            Character,
-            CharacterController::new(scene.motion),
-            Skeleton {
-                rig: Arc::new(humanoid()),
-            },
-            BoneColliders::humanoid(),
-            InverseKinematics {
-                goals: vec![IkGoal {
-                    end_bone: "forearm_r".into(),
-                    length: 3,
-                    effector: WRIST,
-                    target: IkTarget::CharacterPoint(wave_at(0.0).1),
-                    settings: IkSettings::default(),
-                    weight: 0.0,
-                    max_speed: IkGoal::DEFAULT_MAX_SPEED,
-                }],
-                results: Vec::new(),
-            },
-            Transform::default(),
-        ))
-        .id();
-    if let Some(assets) = &assets {
-        commands
-            .entity(character)
-            .insert(ClipPlayer::new(assets.load("clips/walk.clip.ron")));
-    }
     commands.spawn((
         Name::new("ground"),
         ClothCollider::plane().with_friction(0.6),
         Transform::default(),
     ));
-    let mut poncho = commands.spawn((
-        Name::new("poncho"),
-        Poncho,
-        Mesh3d(mesh),
-        Cloth::worn_by(character),
-        ClothSettings {
-            density: scene.density,
-            solver: scene.solver,
-            inertia: scene.inertia,
-            divergence: scene.divergence,
-            ..default()
-        },
-        Transform::from_xyz(0.0, scene.start_height, 0.0),
-    ));
-    if let Some(simulated) = simulated {
-        poncho.insert(ClothSimulationMesh(simulated));
+    for i in 0..scene.characters.max(1) {
+        let motion = match i {
+            0 => scene.motion,
+            i => CROWD_MOTIONS[(i as usize - 1) % CROWD_MOTIONS.len()],
+        };
+        let at = Vec3::X * (i as f32 * CROWD_SPACING);
+        let character = commands
+            .spawn((
+                Name::new(numbered("character", i)),
+                Character,
+                CharacterController::new(motion),
+                Skeleton {
+                    rig: Arc::new(humanoid()),
+                },
+                BoneColliders::humanoid(),
+                InverseKinematics {
+                    goals: vec![IkGoal {
+                        end_bone: "forearm_r".into(),
+                        length: 3,
+                        effector: WRIST,
+                        target: IkTarget::CharacterPoint(wave_at(0.0).1),
+                        settings: IkSettings::default(),
+                        weight: 0.0,
+                        max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                    }],
+                    results: Vec::new(),
+                },
+                Transform::from_translation(at),
+            ))
+            .id();
+        if let Some(assets) = &assets {
+            commands
+                .entity(character)
+                .insert(ClipPlayer::new(assets.load("clips/walk.clip.ron")));
+        }
+        let mut poncho = commands.spawn((
+            Name::new(numbered("poncho", i)),
+            Poncho,
+            Mesh3d(mesh.clone()),
+            Cloth::worn_by(character),
+            ClothSettings {
+                density: scene.density,
+                solver: scene.solver,
+                inertia: scene.inertia,
+                divergence: scene.divergence,
+                ..default()
+            },
+            Transform::from_translation(at + Vec3::Y * scene.start_height),
+        ));
+        if let Some(simulated) = &simulated {
+            poncho.insert(ClothSimulationMesh(simulated.clone()));
+        }
+    }
+}
+
+/// `name`, then `name 1`, `name 2`, ... for the crowd's other characters.
+fn numbered(name: &str, i: u32) -> String {
+    match i {
+        0 => name.to_string(),
+        i => format!("{name} {i}"),
     }
 }
 

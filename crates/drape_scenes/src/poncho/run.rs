@@ -20,6 +20,9 @@ pub struct PonchoRun {
     /// Wall time of every fixed step, by stage (see [`DrapeTimings`]), milliseconds:
     /// `[animation, inverse kinematics, colliders, cloth]`.
     pub stage_ms: Vec<[f64; 4]>,
+    /// The cloth stage of every fixed step by part, summed over the ponchos
+    /// ([`DrapeTimings::cloth_parts`]).
+    pub cloth_parts: Vec<bevy_drape::cloth::StepTimings>,
     /// The deepest any particle was inside any capsule or sphere proxy after any step, metres
     /// (measured from the proxy's surface, without its margin; 0 if none was).
     pub deepest_penetration: f32,
@@ -77,6 +80,11 @@ struct S3Line {
     ms_ik: f64,
     ms_colliders: f64,
     ms_cloth: f64,
+    ms_predict: f64,
+    ms_constraints: f64,
+    ms_self_collision: f64,
+    ms_contacts: f64,
+    self_collision_share: f64,
     deepest_penetration: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
@@ -122,6 +130,12 @@ impl PonchoRun {
             ms_ik: self.median_ms(1),
             ms_colliders: self.median_ms(2),
             ms_cloth: self.median_ms(3),
+            ms_predict: self.median_part_ms(|p| p.predict),
+            ms_constraints: self.median_part_ms(|p| p.constraints),
+            ms_self_collision: self.median_part_ms(|p| p.self_collision),
+            ms_contacts: self.median_part_ms(|p| p.contacts),
+            self_collision_share: self.median_part_ms(|p| p.self_collision)
+                / self.median_part_ms(|p| p.total()),
             deepest_penetration: self.deepest_penetration,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
@@ -147,6 +161,20 @@ impl PonchoRun {
             .stage_ms
             .iter()
             .map(|s| if stage < 4 { s[stage] } else { s.iter().sum() })
+            .collect();
+        crate::scenes::median(&values)
+    }
+
+    /// The median over the steps of one part of the cloth stage ([`PonchoRun::cloth_parts`]),
+    /// milliseconds.
+    pub fn median_part_ms(
+        &self,
+        part: impl Fn(&bevy_drape::cloth::StepTimings) -> std::time::Duration,
+    ) -> f64 {
+        let values: Vec<f64> = self
+            .cloth_parts
+            .iter()
+            .map(|p| part(p).as_secs_f64() * 1e3)
             .collect();
         crate::scenes::median(&values)
     }
@@ -234,11 +262,19 @@ pub const LOAD_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30)
 /// measures it after every step. Fails if the poncho could not be built or the files did not
 /// load within [`LOAD_TIMEOUT`].
 pub fn run_headless(scene: PonchoScene, steps: u32) -> Result<PonchoRun, String> {
+    run_app(headless_app(scene), steps)
+}
+
+/// [`run_headless`] on an app [`headless_app`] made (with, say, other
+/// [`DrapeSettings`](bevy_drape::cloth::plugin::DrapeSettings)).
+pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
     use bevy::time::TimeUpdateStrategy;
     use std::time::{Duration, Instant};
 
-    let motion = scene.motion;
-    let mut app = headless_app(scene);
+    let motion = app
+        .world()
+        .get_resource::<PonchoScene>()
+        .map_or_else(default, |scene| scene.motion);
     // Time stands still until the poncho is built and the clip is playing; the files load on
     // the asset server's threads meanwhile.
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
@@ -278,6 +314,7 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> Result<PonchoRun, String>
         last_step = timings.steps;
         run.steps += 1;
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        run.cloth_parts.push(timings.cloth_parts);
         run.stage_ms.push([
             ms(timings.animation),
             ms(timings.inverse_kinematics),
@@ -351,24 +388,36 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         .resource_mut::<Messages<bevy_drape::cloth::plugin::ClothDiverged>>()
         .drain()
         .count() as u32;
-    let chest = world
-        .query_filtered::<&bevy_drape::skeleton::plugin::SkeletonBones, With<Character>>()
-        .iter(world)
-        .next()
-        .and_then(|bones| bones.get("chest"));
+    // Every poncho is measured against the chest of the character wearing it.
     let mut transforms =
         bevy::ecs::system::SystemState::<bevy::transform::helper::TransformHelper>::new(world);
-    let chest = chest
-        .and_then(|e| {
-            transforms
-                .get(world)
-                .ok()
-                .and_then(|t| t.compute_global_transform(e).ok())
+    let wearers: Vec<(Entity, Option<Entity>)> = world
+        .query_filtered::<(Entity, &bevy_drape::cloth::plugin::Cloth), With<Poncho>>()
+        .iter(world)
+        .map(|(poncho, cloth)| (poncho, cloth.follow))
+        .collect();
+    let chests: Vec<(Entity, Option<Vec3>)> = wearers
+        .iter()
+        .map(|&(poncho, wearer)| {
+            let chest = (|| {
+                let bone = world
+                    .get::<bevy_drape::skeleton::plugin::SkeletonBones>(wearer?)?
+                    .get("chest")?;
+                let helper = transforms.get(world).ok()?;
+                helper
+                    .compute_global_transform(bone)
+                    .ok()
+                    .map(|g| g.translation())
+            })();
+            (poncho, chest)
         })
-        .map(|g| g.translation());
+        .collect();
     let mut ponchos =
         world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
-    for simulation in ponchos.iter(world) {
+    for (poncho, chest) in chests {
+        let Ok(simulation) = ponchos.get(world, poncho) else {
+            continue;
+        };
         let sim = simulation.solver();
         let x = &sim.state().positions;
         run.particles = x.len();
