@@ -2,11 +2,18 @@
 //! distance `d` apart (by default the mean rest length of the structural edges), the
 //! particle-spacing method of Müller's "Ten Minute Physics" cloth self-collision.
 //!
-//! Candidates are found once per fixed step through a spatial hash of cell size `r`, the query
-//! radius `d` plus how far two particles can close in on each other during the step (capped at
-//! `3 d`): every particle looks at the 3 x 3 x 3 cells around its own. The pairs found are then
-//! projected in every solver iteration like any inequality constraint: with `x_ij = x_i - x_j`
-//! and `C = |x_ij| - d_ij <= 0`, the particles move apart along `x_ij` in the ratio of their
+//! Candidates are found once per fixed step: pairs closer than `d` plus how far the two can
+//! close in on each other during the step. That is `t_i + t_j`, with `t_i` how far particle
+//! `i` travels relative to the cloth's common motion (its speed relative to the centre of the
+//! velocities' bounding box, times the step, plus the acceleration's share; at most `d`), so a
+//! cloth carried along by its character searches no further than one at rest, and a cloth at
+//! rest with one fast corner looks far only around that corner. The search sorts the
+//! particles into a grid of cells `d + 2 max t` wide. At the start of every substep the
+//! candidates are narrowed to those that can touch within it (closer than their minimum
+//! distance plus the substep's share of `t_i + t_j` plus `d / 10` for the solver's own
+//! corrections), and those are projected in every solver iteration of the substep like any
+//! inequality constraint: with `x_ij = x_i - x_j` and `C = |x_ij| - d_ij <= 0`, the particles
+//! move apart along `x_ij` in the ratio of their
 //! inverse masses. `d_ij = min(d, |X_i - X_j|)` with `X` the rest positions, so the constraint
 //! never pushes apart two particles that were closer than `d` in the rest shape.
 //!
@@ -28,13 +35,15 @@ pub struct SelfContactPair {
     pub min_distance: f32,
 }
 
-/// The self-collision tables of one cloth: the edges' adjacency, the spatial hash and the
+/// The self-collision tables of one cloth: the edges' adjacency, the grid and the
 /// candidate pairs of the current step. Built once; stepping reuses its memory (the pair list
 /// grows to the largest count seen).
 #[derive(Clone, Debug)]
 pub struct SelfCollision {
     distance: f32,
     rest: Vec<Vec3A>,
+    /// The square of the longest edge's length in `rest`.
+    longest_edge2: f32,
     /// Compressed adjacency: the neighbours of `i` are
     /// `adjacency[adjacency_start[i]..adjacency_start[i + 1]]`, sorted.
     adjacency_start: Vec<u32>,
@@ -42,8 +51,13 @@ pub struct SelfCollision {
     cell_start: Vec<u32>,
     cell_entries: Vec<u32>,
     cell_of: Vec<u32>,
-    coords: Vec<Option<[i32; 3]>>,
+    /// Where each particle is in `cell_entries`.
+    slot_of: Vec<u32>,
     pairs: Vec<SelfContactPair>,
+    /// How far each particle can travel relative to the others in the current step, metres.
+    travel: Vec<f32>,
+    /// The candidates that can touch within the current substep.
+    near: Vec<SelfContactPair>,
 }
 
 impl SelfCollision {
@@ -89,17 +103,25 @@ impl SelfCollision {
         for i in 0..n {
             adjacency[adjacency_start[i] as usize..adjacency_start[i + 1] as usize].sort_unstable();
         }
-        let table = 2 * n;
+        let rest: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
+        let longest_edge2 = model
+            .edges
+            .iter()
+            .map(|e| rest[e.particles[0] as usize].distance_squared(rest[e.particles[1] as usize]))
+            .fold(0.0, f32::max);
         Some(Self {
             distance,
-            rest: model.rest_positions.iter().map(|&p| p.into()).collect(),
+            rest,
+            longest_edge2,
             adjacency_start,
             adjacency,
-            cell_start: vec![0; table + 1],
+            cell_start: Vec::with_capacity(MAX_CELLS_PER_PARTICLE * n + 2),
             cell_entries: vec![0; n],
             cell_of: vec![0; n],
-            coords: vec![None; n],
+            slot_of: vec![0; n],
             pairs: Vec::with_capacity(8 * n),
+            travel: vec![0.0; n],
+            near: Vec::with_capacity(n),
         })
     }
 
@@ -113,6 +135,28 @@ impl SelfCollision {
         &self.pairs
     }
 
+    /// The candidates [`Self::project`] looks at in the current substep.
+    pub fn near_pairs(&self) -> &[SelfContactPair] {
+        &self.near
+    }
+
+    /// Narrows the step's candidates to those that can touch within one of its `substeps`
+    /// substeps, seen from the positions `x` at the substep's start (after the prediction):
+    /// pairs closer than their minimum distance plus the substep's share of how far the two
+    /// travel in the step plus a tenth of the distance, the room left for the solver's
+    /// corrections.
+    pub fn begin_substep(&mut self, x: &[Vec3A], substeps: u32) {
+        let share = 1.0 / substeps.max(1) as f32;
+        let margin = 0.1 * self.distance;
+        let travel = &self.travel;
+        self.near.clear();
+        self.near.extend(self.pairs.iter().filter(|pair| {
+            let [i, j] = pair.particles.map(|p| p as usize);
+            let reach = pair.min_distance + margin + (travel[i] + travel[j]) * share;
+            x[i].distance_squared(x[j]) < reach * reach
+        }));
+    }
+
     /// Whether particles `a` and `b` share an edge (adjacent particles are never pushed apart).
     pub fn adjacent(&self, a: u32, b: u32) -> bool {
         let (a, b) = (a as usize, b as usize);
@@ -124,34 +168,36 @@ impl SelfCollision {
         neighbours.binary_search(&(b as u32)).is_ok()
     }
 
-    /// Finds the pairs of non-adjacent particles of `x` closer than the distance plus `reach`
-    /// (how far two particles can close in on each other before the next search; capped at
-    /// twice the distance).
-    pub fn find_pairs(&mut self, x: &[Vec3A], reach: f32) {
+    /// Finds the pairs of non-adjacent particles of `x` (velocities `v`) that can come closer
+    /// than the distance within `dt` under an acceleration of magnitude `acceleration`: those
+    /// closer than the distance plus both particles' travel (see the module's description).
+    ///
+    /// The particles are sorted into a dense grid over their bounding box, cells at least the
+    /// largest query radius wide (wider when the box would need more than
+    /// [`MAX_CELLS_PER_PARTICLE`] cells per particle); every particle looks at the rest of its
+    /// own cell and the 13 cells ahead of it (half of the 26 around it, so each pair is seen
+    /// once). The cells of one grid row are consecutive in the sorted order, so that is five
+    /// runs of particles each. The pairs come particle by particle, in the particles' order
+    /// (the order the edges are swept in). Non-finite particles are in no cell and in no pair.
+    pub fn find_pairs(&mut self, x: &[Vec3A], v: &[Vec3A], dt: f32, acceleration: f32) {
         self.pairs.clear();
-        let n = x.len().min(self.rest.len());
+        self.near.clear();
+        let n = x.len().min(v.len()).min(self.rest.len());
         if n == 0 {
             return;
         }
-        let reach = if reach.is_finite() {
-            reach.max(0.0)
-        } else {
-            0.0
+        let max_travel = self.set_travel(&v[..n], dt, acceleration);
+        let radius = self.distance + 2.0 * max_travel;
+        let Some(grid) = Grid::new(&x[..n], radius, MAX_CELLS_PER_PARTICLE * n) else {
+            return;
         };
-        let radius = self.distance + reach.min(2.0 * self.distance);
-        let inv_cell = 1.0 / radius;
-        let table = self.cell_start.len() - 1;
-        // Counting sort of the particles by cell hash.
-        self.cell_start.fill(0);
-        for ((p, coords), cell_of) in x[..n].iter().zip(&mut self.coords).zip(&mut self.cell_of) {
-            *coords = cell_coords(*p, inv_cell);
-            let h = match *coords {
-                Some(c) => hash(c, table),
-                None => table as u32, // non-finite: in no cell
-            };
-            *cell_of = h;
-            if (h as usize) < table {
-                self.cell_start[h as usize] += 1;
+        // Counting sort of the particles by cell.
+        self.cell_start.clear();
+        self.cell_start.resize(grid.cells() + 2, 0);
+        for (p, cell_of) in x[..n].iter().zip(&mut self.cell_of) {
+            *cell_of = grid.cell(*p).unwrap_or(u32::MAX);
+            if *cell_of != u32::MAX {
+                self.cell_start[*cell_of as usize] += 1;
             }
         }
         let mut running = 0;
@@ -160,50 +206,90 @@ impl SelfCollision {
             *count = running;
         }
         for i in (0..n).rev() {
-            let h = self.cell_of[i] as usize;
-            if h < table {
-                self.cell_start[h] -= 1;
-                self.cell_entries[self.cell_start[h] as usize] = i as u32;
+            let c = self.cell_of[i];
+            if c != u32::MAX {
+                self.cell_start[c as usize] -= 1;
+                self.cell_entries[self.cell_start[c as usize] as usize] = i as u32;
+                self.slot_of[i] = self.cell_start[c as usize];
             }
         }
-        let radius2 = radius * radius;
+        let [nx, ny, nz] = grid.dims;
+        // Particle by particle, so that the pairs come in the order the edges are swept.
         for i in 0..n {
-            let Some(c) = self.coords[i] else {
+            let c = self.cell_of[i];
+            if c == u32::MAX {
                 continue;
-            };
-            for dz in -1..=1 {
-                for dy in -1..=1 {
-                    for dx in -1..=1 {
-                        let cell = [c[0] + dx, c[1] + dy, c[2] + dz];
-                        let h = hash(cell, table) as usize;
-                        let (start, end) = (self.cell_start[h], self.cell_start[h + 1]);
-                        for k in start..end {
-                            let j = self.cell_entries[k as usize] as usize;
-                            if j <= i || x[i].distance_squared(x[j]) > radius2 {
-                                continue;
-                            }
-                            // Several cells can hash to one bucket: count each pair once, when
-                            // visiting `j`'s own cell.
-                            if self.coords[j] != Some(cell) {
-                                continue;
-                            }
-                            if self.adjacent(i as u32, j as u32) {
-                                continue;
-                            }
-                            let min_distance =
-                                self.distance.min(self.rest[i].distance(self.rest[j]));
-                            self.pairs.push(SelfContactPair {
-                                particles: [i as u32, j as u32],
-                                min_distance,
-                            });
-                        }
+            }
+            let slot = self.slot_of[i];
+            let [cx, cy, cz] = grid.coords(c);
+            // The rest of this cell and the next one in the row.
+            let row_end = c + u32::from(cx + 1 < nx) + 1;
+            let mut runs = [(0u32, 0u32); 5];
+            runs[0] = (slot + 1, self.cell_start[row_end as usize]);
+            // The rows ahead: (y + 1, z) and (y - 1 ..= y + 1, z + 1), three cells each.
+            let mut count = 1;
+            for (dy, dz) in [(1i32, 0i32), (-1, 1), (0, 1), (1, 1)] {
+                let (y, z) = (cy as i32 + dy, cz as i32 + dz);
+                if y < 0 || y >= ny as i32 || z < 0 || z >= nz as i32 {
+                    continue;
+                }
+                let row = grid.index([0, y as u32, z as u32]);
+                let first = row + cx.saturating_sub(1);
+                let last = row + (cx + 1).min(nx - 1);
+                runs[count] = (
+                    self.cell_start[first as usize],
+                    self.cell_start[last as usize + 1],
+                );
+                count += 1;
+            }
+            for &(from, to) in &runs[..count] {
+                for k in from..to {
+                    let j = self.cell_entries[k as usize] as usize;
+                    let reach = self.distance + self.travel[i] + self.travel[j];
+                    if x[i].distance_squared(x[j]) > reach * reach {
+                        continue;
                     }
+                    // Only pairs no farther apart in rest than the longest edge can share one.
+                    let rest2 = self.rest[i].distance_squared(self.rest[j]);
+                    if rest2 <= self.longest_edge2 && self.adjacent(i as u32, j as u32) {
+                        continue;
+                    }
+                    let min_distance = self.distance.min(rest2.sqrt());
+                    self.pairs.push(SelfContactPair {
+                        particles: [i.min(j) as u32, i.max(j) as u32],
+                        min_distance,
+                    });
                 }
             }
         }
     }
 
-    /// Pushes apart every candidate pair closer than its minimum distance, in the ratio of the
+    /// Sets how far each particle travels relative to the cloth's common motion within `dt`
+    /// (at most the distance; zero for non-finite input) and returns the largest.
+    fn set_travel(&mut self, v: &[Vec3A], dt: f32, acceleration: f32) -> f32 {
+        let (low, high) = v
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((Vec3A::MAX, Vec3A::MIN), |(low, high), v| {
+                (low.min(*v), high.max(*v))
+            });
+        let centre = 0.5 * (low + high);
+        let fall = 0.5 * acceleration * dt * dt;
+        let mut largest = 0.0f32;
+        for (travel, v) in self.travel.iter_mut().zip(v) {
+            let t = (*v - centre).length() * dt + fall;
+            *travel = if t.is_finite() {
+                t.clamp(0.0, self.distance)
+            } else {
+                0.0
+            };
+            largest = largest.max(*travel);
+        }
+        largest
+    }
+
+    /// Pushes apart every pair of the substep's candidates ([`Self::begin_substep`]) closer
+    /// than its minimum distance, in the ratio of the
     /// inverse masses `w`, and applies Coulomb friction on positions (Macklin et al. 2014,
     /// "Unified particle physics", eq. 24): the pair's relative tangential displacement over
     /// the substep (`x - x_prev`) is removed entirely if it is below `friction` times the
@@ -221,7 +307,7 @@ impl SelfCollision {
         mut velocities: Option<(&mut [Vec3A], f32)>,
     ) -> usize {
         let mut contacts = 0;
-        for pair in &self.pairs {
+        for pair in &self.near {
             let [i, j] = pair.particles.map(|p| p as usize);
             let wsum = w[i] + w[j];
             if wsum <= 0.0 {
@@ -272,20 +358,70 @@ impl SelfCollision {
     }
 }
 
-fn cell_coords(p: Vec3A, inv_cell: f32) -> Option<[i32; 3]> {
-    let c = (p * inv_cell).floor();
-    // Far outside any scene (or non-finite): no cell.
-    if c.is_nan() || c.abs().max_element() >= 1.0e8 {
-        return None;
-    }
-    Some([c.x as i32, c.y as i32, c.z as i32])
+/// Most grid cells per particle: a cloth spread thinly over a large box gets wider cells.
+const MAX_CELLS_PER_PARTICLE: usize = 8;
+
+/// A dense grid of cubic cells over the bounding box of the finite particles, cells numbered
+/// x fastest.
+struct Grid {
+    origin: Vec3A,
+    inv_cell: f32,
+    dims: [u32; 3],
 }
 
-fn hash(c: [i32; 3], table: usize) -> u32 {
-    let h = (c[0].wrapping_mul(92_837_111))
-        ^ (c[1].wrapping_mul(689_287_499))
-        ^ (c[2].wrapping_mul(283_923_481));
-    (h.unsigned_abs() as usize % table) as u32
+impl Grid {
+    /// Cells at least `min_cell` wide and at most `max_cells` of them (at least one); `None`
+    /// when no particle is finite.
+    fn new(x: &[Vec3A], min_cell: f32, max_cells: usize) -> Option<Self> {
+        let (low, high) = x
+            .iter()
+            .filter(|p| p.is_finite())
+            .fold((Vec3A::MAX, Vec3A::MIN), |(low, high), p| {
+                (low.min(*p), high.max(*p))
+            });
+        if low.x > high.x {
+            return None;
+        }
+        let extent = high - low;
+        let mut cell = min_cell
+            .max(extent.max_element() * 1.0e-6)
+            .max(f32::MIN_POSITIVE);
+        loop {
+            let dims = (extent / cell).floor().as_uvec3() + 1;
+            let cells = dims.x as u64 * dims.y as u64 * dims.z as u64;
+            if cells <= max_cells.max(1) as u64 {
+                return Some(Self {
+                    origin: low,
+                    inv_cell: 1.0 / cell,
+                    dims: dims.to_array(),
+                });
+            }
+            cell *= 1.25;
+        }
+    }
+
+    fn cells(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
+    }
+
+    fn index(&self, [x, y, z]: [u32; 3]) -> u32 {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    fn coords(&self, cell: u32) -> [u32; 3] {
+        let [nx, ny, _] = self.dims;
+        [cell % nx, (cell / nx) % ny, cell / (nx * ny)]
+    }
+
+    /// The cell of `p`; `None` when `p` is not finite.
+    fn cell(&self, p: Vec3A) -> Option<u32> {
+        if !p.is_finite() {
+            return None;
+        }
+        let c = ((p - self.origin) * self.inv_cell).floor().as_uvec3();
+        let c = c.min(bevy::math::UVec3::from_array(self.dims) - 1);
+        Some(self.index(c.to_array()))
+    }
 }
 
 #[cfg(test)]
@@ -294,11 +430,13 @@ mod tests {
     use crate::cloth::model::GridDesc;
     use bevy::math::Vec3;
 
-    fn brute_force(sc: &SelfCollision, x: &[Vec3A], radius: f32) -> Vec<[u32; 2]> {
+    /// Every non-adjacent pair closer than the distance plus both particles' travel.
+    fn brute_force(sc: &SelfCollision, x: &[Vec3A]) -> Vec<[u32; 2]> {
         let mut out = Vec::new();
         for i in 0..x.len() {
             for j in i + 1..x.len() {
-                if x[i].distance(x[j]) <= radius && !sc.adjacent(i as u32, j as u32) {
+                let reach = sc.distance() + sc.travel[i] + sc.travel[j];
+                if x[i].distance(x[j]) <= reach && !sc.adjacent(i as u32, j as u32) {
                     out.push([i as u32, j as u32]);
                 }
             }
@@ -306,8 +444,14 @@ mod tests {
         out
     }
 
+    fn found(sc: &SelfCollision) -> Vec<[u32; 2]> {
+        let mut found: Vec<[u32; 2]> = sc.pairs().iter().map(|p| p.particles).collect();
+        found.sort_unstable();
+        found
+    }
+
     #[test]
-    fn the_hash_finds_exactly_the_pairs_a_brute_force_search_finds() {
+    fn the_grid_finds_exactly_the_pairs_a_brute_force_search_finds() {
         let model =
             ClothModel::grid(&GridDesc::square(1.0, 13, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
         let mut sc = SelfCollision::new(&model, None).unwrap();
@@ -320,12 +464,125 @@ mod tests {
                 Vec3A::new(p.x.abs() * 0.3, fold, p.z)
             })
             .collect();
-        sc.find_pairs(&x, 0.01);
-        let mut found: Vec<[u32; 2]> = sc.pairs().iter().map(|p| p.particles).collect();
-        found.sort_unstable();
-        let expected = brute_force(&sc, &x, sc.distance() + 0.01);
+        // At rest under an acceleration that moves every particle 1 cm in the step.
+        let v = vec![Vec3A::ZERO; x.len()];
+        sc.find_pairs(&x, &v, 1.0, 0.02);
+        assert!(sc.travel.iter().all(|&t| (t - 0.01).abs() < 1e-6));
+        let expected = brute_force(&sc, &x);
         assert!(expected.len() > 50, "the test shape has overlaps");
-        assert_eq!(found, expected);
+        assert_eq!(found(&sc), expected);
+    }
+
+    #[test]
+    fn random_clouds_give_exactly_the_brute_force_pairs_whatever_their_spread() {
+        let model =
+            ClothModel::grid(&GridDesc::square(1.0, 9, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
+        let mut sc = SelfCollision::new(&model, None).unwrap();
+        let mut rng = drape_scenes::scan::Rng(7);
+        // From a ball a few distances wide (dense cells) to a box far wider than the grid may
+        // cover with cells of the query radius (the cells grow), and a cloud with one far
+        // outlier and non-finite input.
+        for (case, spread) in [0.2f32, 1.0, 30.0, 1.0e4].into_iter().enumerate() {
+            for speed in [0.0, 3.0, 100.0] {
+                let mut x: Vec<Vec3A> = (0..model.particle_count())
+                    .map(|_| {
+                        Vec3A::new(
+                            rng.range(-spread, spread),
+                            rng.range(-spread, spread) * 0.1,
+                            rng.range(-spread, spread),
+                        )
+                    })
+                    .collect();
+                // A common drift plus a random part of up to `speed`.
+                let mut v: Vec<Vec3A> = (0..x.len())
+                    .map(|_| {
+                        Vec3A::new(5.0, 0.0, 0.0)
+                            + speed
+                                * Vec3A::new(
+                                    rng.range(-1.0, 1.0),
+                                    rng.range(-1.0, 1.0),
+                                    rng.range(-1.0, 1.0),
+                                )
+                    })
+                    .collect();
+                if case == 3 {
+                    // A tight cluster near the origin, one particle far off, one NaN position
+                    // and one infinite velocity.
+                    for p in x.iter_mut().take(60) {
+                        *p *= 1.0e-5;
+                    }
+                    x[70] = Vec3A::new(f32::NAN, 0.0, 0.0);
+                    v[5] = Vec3A::new(0.0, f32::INFINITY, 0.0);
+                }
+                sc.find_pairs(&x, &v, 1.0 / 60.0, 9.81);
+                assert!(sc.travel.iter().all(|t| (0.0..=sc.distance()).contains(t)));
+                let expected = brute_force(&sc, &x);
+                assert_eq!(found(&sc), expected, "spread {spread}, speed {speed}");
+                if spread < 1.0 || case == 3 {
+                    assert!(
+                        !expected.is_empty(),
+                        "spread {spread}: the cloud has close pairs"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pairs_left_out_cannot_touch_within_the_step() {
+        // Random particles in free flight (a common drift, random relative velocities, the
+        // same acceleration), and some pinned (no acceleration): every pair the search leaves
+        // out stays farther apart than the distance over the whole step.
+        let model =
+            ClothModel::grid(&GridDesc::square(1.0, 9, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
+        let mut sc = SelfCollision::new(&model, None).unwrap();
+        let d = sc.distance();
+        let mut rng = drape_scenes::scan::Rng(11);
+        let dt = 1.0 / 60.0;
+        let g = Vec3A::new(0.0, -9.81, 0.0);
+        for _ in 0..20 {
+            let x: Vec<Vec3A> = (0..model.particle_count())
+                .map(|_| {
+                    Vec3A::new(
+                        rng.range(-0.4, 0.4),
+                        rng.range(-0.4, 0.4),
+                        rng.range(0.0, 0.2),
+                    )
+                })
+                .collect();
+            let v: Vec<Vec3A> = (0..x.len())
+                .map(|_| {
+                    Vec3A::new(1.5, 0.0, 0.0)
+                        + rng.range(0.0, 4.0)
+                            * Vec3A::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 0.0)
+                })
+                .collect();
+            let pinned: Vec<bool> = (0..x.len()).map(|_| rng.uniform() < 0.1).collect();
+            sc.find_pairs(&x, &v, dt, g.length());
+            let listed = found(&sc);
+            let at = |i: usize, t: f32| {
+                let a = if pinned[i] { Vec3A::ZERO } else { g };
+                x[i] + v[i] * t + 0.5 * a * t * t
+            };
+            let mut left_out = 0;
+            for i in 0..x.len() {
+                for j in i + 1..x.len() {
+                    if sc.adjacent(i as u32, j as u32)
+                        || listed.binary_search(&[i as u32, j as u32]).is_ok()
+                    {
+                        continue;
+                    }
+                    left_out += 1;
+                    for k in 0..=32 {
+                        let t = dt * k as f32 / 32.0;
+                        let gap = at(i, t).distance(at(j, t));
+                        assert!(gap > d, "pair {i}-{j} left out came {gap} close (d {d})");
+                    }
+                }
+            }
+            assert!(left_out > 1000);
+            assert!(listed.len() > 10);
+        }
     }
 
     #[test]
@@ -343,7 +600,8 @@ mod tests {
         let w = vec![1.0; x.len()];
         let before: Vec3A = x.iter().copied().sum();
         let x_prev = x.clone();
-        sc.find_pairs(&x, 0.0);
+        sc.find_pairs(&x, &vec![Vec3A::ZERO; x.len()], 1.0 / 60.0, 0.0);
+        sc.begin_substep(&x, 1);
         for _ in 0..20 {
             sc.project(&mut x, &x_prev, &w, 0.0, None);
         }

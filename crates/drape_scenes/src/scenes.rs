@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use bevy::math::{Quat, UVec2, Vec2, Vec3};
+use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 
 use bevy_drape::cloth::internals::SelfCollision;
 use bevy_drape::cloth::{
@@ -273,7 +273,8 @@ impl SheetDrop {
 pub fn closest_non_adjacent(sim: &ClothSolver, within: f32) -> Option<f32> {
     let mut tables = SelfCollision::new(sim.model(), Some(within))?;
     let x = &sim.state().positions;
-    tables.find_pairs(x, 0.0);
+    // At rest: the pairs within `within` now.
+    tables.find_pairs(x, &vec![Vec3A::ZERO; x.len()], 0.0, 0.0);
     tables.closest_pair(x).map(|(_, d)| d)
 }
 

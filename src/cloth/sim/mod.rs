@@ -782,16 +782,12 @@ impl ClothSolver {
         let Some(sc) = self.self_collision.as_mut() else {
             return;
         };
-        let x = &self.state.positions;
-        let v = &self.state.velocities;
-        let max_speed = v
-            .iter()
-            .map(|v| v.length_squared())
-            .fold(0.0f32, f32::max)
-            .sqrt();
-        // Two particles close in at most twice the fastest particle's travel.
-        let travel = max_speed * dt + 0.5 * acceleration.length() * dt * dt;
-        sc.find_pairs(x, 2.0 * travel);
+        sc.find_pairs(
+            &self.state.positions,
+            &self.state.velocities,
+            dt,
+            acceleration.length(),
+        );
     }
 
     /// How many pairs of particles were held apart by self-collision in the last step's last

@@ -161,9 +161,9 @@ impl ClothSolver {
         } = &mut self.state;
         let mut springs = self.springs.as_mut().filter(|_| uses_springs);
         let colliders = &self.colliders;
-        let self_collision = self
+        let mut self_collision = self
             .self_collision
-            .as_ref()
+            .as_mut()
             .filter(|_| settings.self_collision);
         let mut laps = Laps::start();
         self.contacts
@@ -246,6 +246,10 @@ impl ClothSolver {
             t.predict += laps.lap();
 
             // 2. Project.
+            if let Some(sc) = self_collision.as_deref_mut() {
+                sc.begin_substep(x, substeps);
+                t.self_collision += laps.lap();
+            }
             if !colliders.is_empty() {
                 self.contacts.begin_substep(
                     colliders,
@@ -339,7 +343,7 @@ impl ClothSolver {
                 // Self-collision before the colliders, so that pushing layers apart never
                 // leaves a particle inside a collider. Mass-spring's is discrete: the
                 // correction also changes the velocity.
-                if let Some(sc) = self_collision {
+                if let Some(sc) = self_collision.as_deref() {
                     let discrete = mass_spring.then_some((v.as_mut_slice(), inv_h));
                     let touching = sc.project(x, x_prev, w, settings.friction, discrete);
                     if iteration + 1 == iterations {
