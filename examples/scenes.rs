@@ -7,7 +7,7 @@
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0]
-//! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600]
+//! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
@@ -19,9 +19,10 @@
 //! `--simulate-drawn` (or `--n` alone) simulates what it draws.
 //!
 //! `crowd` is S3 with `--characters` characters in ponchos in a row, walking, jogging, standing
-//! and teleporting (`PonchoScene::characters`), stepped on one thread and then on `--threads`
-//! (`DrapeSettings::max_threads`): the ms per fixed step of both, their ratio, and whether
-//! both runs gave the same figures bit for bit.
+//! and teleporting (`PonchoScene::characters`), stepped on one thread and on `--threads`
+//! (`DrapeSettings::max_threads`) in turn, `--runs` times each: the ms per fixed step of both
+//! (the median over the runs of each run's median), their ratio, and whether every run gave
+//! the same figures bit for bit.
 //!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
@@ -267,39 +268,57 @@ fn run() -> Result<(), String> {
         "crowd" => {
             let threads =
                 std::num::NonZeroUsize::new(threads).ok_or("--threads must be at least 1")?;
-            let mut runs = Vec::new();
-            for max_threads in [std::num::NonZeroUsize::MIN, threads] {
-                let mut app = headless_app(PonchoScene {
-                    solver: settings,
-                    characters,
-                    ..PonchoScene::default()
-                });
-                app.insert_resource(DrapeSettings {
-                    max_threads: Some(max_threads),
-                    ..DrapeSettings::default()
-                });
-                runs.push(
-                    run_app(app, frames).map_err(|e| {
+            // One thread and `threads` in turn, `runs` times each, so that both see the
+            // machine in the same state.
+            let mut one_runs = Vec::new();
+            let mut many_runs = Vec::new();
+            for _ in 0..runs.max(1) {
+                for (max_threads, into) in [
+                    (std::num::NonZeroUsize::MIN, &mut one_runs),
+                    (threads, &mut many_runs),
+                ] {
+                    let mut app = headless_app(PonchoScene {
+                        solver: settings,
+                        characters,
+                        ..PonchoScene::default()
+                    });
+                    app.insert_resource(DrapeSettings {
+                        max_threads: Some(max_threads),
+                        ..DrapeSettings::default()
+                    });
+                    into.push(run_app(app, frames).map_err(|e| {
                         format!("{e} (is the working directory the repository root?)")
-                    })?,
-                );
+                    })?);
+                }
             }
-            let (one, many) = (&runs[0], &runs[1]);
-            let ms = |run: &drape_scenes::poncho::PonchoRun| (run.median_ms(4), run.median_ms(3));
-            let ((one_ms, one_cloth), (many_ms, many_cloth)) = (ms(one), ms(many));
-            let same = one.step_max_strain == many.step_max_strain
-                && one.centroid_offsets == many.centroid_offsets;
+            let one = &one_runs[0];
+            let same = one_runs.iter().chain(&many_runs).all(|run| {
+                run.step_max_strain == one.step_max_strain
+                    && run.centroid_offsets == one.centroid_offsets
+            });
+            // Medians over the runs of each run's median step.
+            let ms = |runs: &[drape_scenes::poncho::PonchoRun], stage: usize| {
+                median(
+                    &runs
+                        .iter()
+                        .map(|run| run.median_ms(stage))
+                        .collect::<Vec<_>>(),
+                )
+            };
+            let (one_ms, one_cloth) = (ms(&one_runs, 4), ms(&one_runs, 3));
+            let (many_ms, many_cloth) = (ms(&many_runs, 4), ms(&many_runs, 3));
+            let all = || one_runs.iter().chain(&many_runs);
             println!(
-                "{{\"scene\":\"crowd\",\"characters\":{characters},\"particles_each\":{},\"substeps\":{},\"iterations\":{},\"frames\":{frames},\"threads\":{threads},\"ms_per_frame_1\":{one_ms:.4},\"ms_cloth_1\":{one_cloth:.4},\"ms_per_frame_n\":{many_ms:.4},\"ms_cloth_n\":{many_cloth:.4},\"speedup\":{:.3},\"cloth_speedup\":{:.3},\"same_result\":{same},\"step_max_strain_median\":{:.6},\"deepest_penetration\":{:.6},\"divergences\":{},\"finite\":{}}}",
+                "{{\"scene\":\"crowd\",\"characters\":{characters},\"particles_each\":{},\"substeps\":{},\"iterations\":{},\"frames\":{frames},\"runs\":{runs},\"threads\":{threads},\"ms_per_frame_1\":{one_ms:.4},\"ms_cloth_1\":{one_cloth:.4},\"ms_per_frame_n\":{many_ms:.4},\"ms_cloth_n\":{many_cloth:.4},\"speedup\":{:.3},\"cloth_speedup\":{:.3},\"same_result\":{same},\"step_max_strain_median\":{:.6},\"deepest_penetration\":{:.6},\"divergences\":{},\"finite\":{}}}",
                 one.particles,
                 settings.substeps,
                 settings.iterations,
                 one_ms / many_ms,
                 one_cloth / many_cloth,
                 one.step_strain_median(),
-                one.deepest_penetration.max(many.deepest_penetration),
-                one.divergences + many.divergences,
-                one.finite && many.finite,
+                all().map(|run| run.deepest_penetration).fold(0.0, f32::max),
+                all().map(|run| run.divergences).sum::<u32>(),
+                all().all(|run| run.finite),
             );
             Ok(())
         }

@@ -559,22 +559,35 @@ fn step_cloths(
         .min(cloths.iter().len());
     match pool {
         Some(pool) if threads > 1 => {
+            // `threads` workers take the cloths one at a time from a shared queue: the
+            // scope's thread starts at once and the pool's join as they wake, so a late
+            // thread costs no more than the cloth it would have stepped. Each cloth's step is
+            // the same whichever thread runs it; the messages go out in the query's order.
             let mut all: Vec<_> = cloths.iter_mut().collect();
-            let chunk = all.len().div_ceil(threads);
-            let context = &context;
+            let queue = std::sync::Mutex::new(all.iter_mut().enumerate());
+            let (queue, context) = (&queue, &context);
             let results = pool.scope(|scope| {
-                for chunk in all.chunks_mut(chunk) {
+                for _ in 0..threads {
                     scope.spawn(async move {
-                        chunk
-                            .iter_mut()
-                            .filter_map(|(entity, cloth, simulation, settings)| {
+                        let mut diverged = Vec::new();
+                        loop {
+                            let next = queue.lock().map(|mut q| q.next());
+                            let Ok(Some((k, (entity, cloth, simulation, settings)))) = next else {
+                                break;
+                            };
+                            if let Some(d) =
                                 step_cloth(*entity, cloth, simulation, *settings, context)
-                            })
-                            .collect::<Vec<_>>()
+                            {
+                                diverged.push((k, d));
+                            }
+                        }
+                        diverged
                     });
                 }
             });
-            diverged.write_batch(results.into_iter().flatten());
+            let mut results: Vec<_> = results.into_iter().flatten().collect();
+            results.sort_unstable_by_key(|(k, _)| *k);
+            diverged.write_batch(results.into_iter().map(|(_, d)| d));
         }
         _ => {
             for (entity, cloth, mut simulation, settings) in &mut cloths {
