@@ -174,7 +174,7 @@ impl SelfCollision {
     ///
     /// The particles are sorted into a dense grid over their bounding box, cells at least the
     /// largest query radius wide (wider when the box would need more than
-    /// [`MAX_CELLS_PER_PARTICLE`] cells per particle); every particle looks at the rest of its
+    /// eight cells per particle); every particle looks at the rest of its
     /// own cell and the 13 cells ahead of it (half of the 26 around it, so each pair is seen
     /// once). The cells of one grid row are consecutive in the sorted order, so that is five
     /// runs of particles each. The pairs come particle by particle, in the particles' order
