@@ -559,12 +559,16 @@ fn step_cloths(
         .min(cloths.iter().len());
     match pool {
         Some(pool) if threads > 1 => {
-            // `threads` workers take the cloths one at a time from a shared queue: the
-            // scope's thread starts at once and the pool's join as they wake, so a late
+            // `threads` workers take the cloths one at a time from a shared queue, the
+            // costliest (by its last step) first so that the last ones to finish are short:
+            // the scope's thread starts at once and the pool's join as they wake, so a late
             // thread costs no more than the cloth it would have stepped. Each cloth's step is
             // the same whichever thread runs it; the messages go out in the query's order.
-            let mut all: Vec<_> = cloths.iter_mut().collect();
-            let queue = std::sync::Mutex::new(all.iter_mut().enumerate());
+            let mut all: Vec<_> = cloths.iter_mut().enumerate().collect();
+            all.sort_by_key(|(_, (_, _, simulation, _))| {
+                std::cmp::Reverse(simulation.sim.last_timings().total())
+            });
+            let queue = std::sync::Mutex::new(all.iter_mut().map(|(k, item)| (*k, item)));
             let (queue, context) = (&queue, &context);
             let results = pool.scope(|scope| {
                 for _ in 0..threads {
