@@ -135,11 +135,6 @@ impl SelfCollision {
         &self.pairs
     }
 
-    /// The candidates [`Self::project`] looks at in the current substep.
-    pub fn near_pairs(&self) -> &[SelfContactPair] {
-        &self.near
-    }
-
     /// Narrows the step's candidates to those that can touch within one of its `substeps`
     /// substeps, seen from the positions `x` at the substep's start (after the prediction):
     /// pairs closer than their minimum distance plus the substep's share of how far the two
