@@ -88,10 +88,16 @@ fn edge_sweep(c: &mut Criterion) {
         true,
     );
     limits.set_weights(&w);
+    // Tethers read their anchors (the pins) from a list of their own.
+    let mut pins: Vec<u32> = sim.tethers().iter().map(|t| t.anchor).collect();
+    pins.sort_unstable();
+    pins.dedup();
+    let anchors: Vec<Vec3A> = pins.iter().map(|&p| x0[p as usize]).collect();
+    let slot = |anchor: u32| pins.binary_search(&anchor).unwrap_or(0) as u32;
     let mut tethers = PairBatches::new(
         sim.tethers()
             .iter()
-            .map(|t| ([t.particle, t.anchor], t.length)),
+            .map(|t| ([t.particle, slot(t.anchor)], t.length)),
         x0.len(),
         false,
     );
@@ -107,7 +113,7 @@ fn edge_sweep(c: &mut Criterion) {
     group.bench_function("tethers_batched", |b| {
         b.iter(|| {
             x.copy_from_slice(&x0);
-            tethers.project_limits(&mut x);
+            tethers.project_tethers(&mut x, &anchors);
         })
     });
     group.finish();

@@ -6,7 +6,7 @@
 //!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
-//!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0]
+//!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
 //! ```
 //!
@@ -17,6 +17,10 @@
 //! (`meshes/poncho_coarse.obj`, `ClothSimulationMesh`) and drawn with the fine one;
 //! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
 //! `--simulate-drawn` (or `--n` alone) simulates what it draws.
+//!
+//! `s1 --threads N` runs S1 a second time with every step split over its thread and a helper
+//! task (`ClothSolver::step_with`, `with_helper`) and adds that run's ms per frame, its ratio
+//! to one thread's (`speedup`) and its strain.
 //!
 //! `crowd` is S3 with `--characters` characters in ponchos in a row, walking, jogging, standing
 //! and teleporting (`PonchoScene::characters`), stepped on one thread and on `--threads`
@@ -77,7 +81,7 @@ fn run() -> Result<(), String> {
     let mut simulate_n: Option<u32> = None;
     let mut simulate_drawn = false;
     let mut characters = 8u32;
-    let mut threads = 2usize;
+    let mut threads: Option<usize> = None;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
         "mass-spring"
@@ -122,7 +126,7 @@ fn run() -> Result<(), String> {
             "--simulate-drawn" => simulate_drawn = true,
             "--no-air" => settings.air = None,
             "--characters" => characters = parse(&value()?)?,
-            "--threads" => threads = parse(&value()?)?,
+            "--threads" => threads = Some(parse(&value()?)?),
             other => return Err(format!("unknown option {other}")),
         }
     }
@@ -150,11 +154,44 @@ fn run() -> Result<(), String> {
     match scene.as_str() {
         "s1" => {
             let scene = HangingCloth { n };
-            let (run, all_frames) = repeat(
-                runs,
-                || scene.run(&settings, frames),
-                |r| &r.trajectory.frame_seconds,
-            );
+            let pool = threads.filter(|&t| t > 1).map(|t| {
+                bevy::tasks::TaskPoolBuilder::new()
+                    .num_threads(t - 1)
+                    .build()
+            });
+            // With --threads, each run is followed by the same run split over a helper task
+            // (alternating, so that both see the same machine): its ms per frame, the ratio
+            // of the medians, and the strain the split sweep ends at.
+            let mut all_frames = Vec::new();
+            let mut split_frames = Vec::new();
+            let mut last = None;
+            for _ in 0..runs.max(1) {
+                let one = scene.run(&settings, frames);
+                all_frames.extend_from_slice(&one.trajectory.frame_seconds);
+                let many = pool.as_ref().map(|pool| {
+                    let many = scene.run_on(&settings, frames, Some(pool));
+                    split_frames.extend_from_slice(&many.trajectory.frame_seconds);
+                    many
+                });
+                last = Some((one, many));
+            }
+            let Some((run, split_run)) = last else {
+                return Err("no run".into());
+            };
+            let split = match (split_run, &pool) {
+                (Some(split_run), Some(pool)) => {
+                    let (one, many) = (median(&all_frames), median(&split_frames));
+                    format!(
+                        ",\"threads\":{},\"ms_per_frame_n\":{:.4},\"speedup\":{:.3},\"max_strain_n\":{:.6},\"finite_n\":{}",
+                        pool.thread_num() + 1,
+                        many * 1e3,
+                        one / many,
+                        split_run.sim.strain().max,
+                        split_run.finite && split_run.divergence.is_none()
+                    )
+                }
+                _ => String::new(),
+            };
             let vec = |v: bevy::math::Vec3| format!("[{:.5},{:.5},{:.5}]", v.x, v.y, v.z);
             let frames = run.sample_frames();
             let at = |track: &[bevy::math::Vec3]| -> Vec<String> {
@@ -166,7 +203,7 @@ fn run() -> Result<(), String> {
                 .map(|&f| format!("{:.3}", f as f32 / FRAME_RATE))
                 .collect();
             println!(
-                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"substeps_used\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{},\"diverged\":{}}}",
+                "{{\"scene\":\"s1\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"substeps_used\":{},\"iterations\":{},\"long_range\":{},\"bending\":\"{}\",\"ms_per_frame\":{:.4},\"runs\":{runs},\"max_strain\":{:.6},\"mean_strain\":{:.6},\"times\":[{}],\"corner\":[{}],\"center\":[{}],\"finite\":{},\"diverged\":{}{split}}}",
                 settings.substeps,
                 run.trajectory.substeps.iter().max().unwrap_or(&0),
                 settings.iterations,
@@ -266,8 +303,8 @@ fn run() -> Result<(), String> {
             Ok(())
         }
         "crowd" => {
-            let threads =
-                std::num::NonZeroUsize::new(threads).ok_or("--threads must be at least 1")?;
+            let threads = std::num::NonZeroUsize::new(threads.unwrap_or(2))
+                .ok_or("--threads must be at least 1")?;
             // One thread and `threads` in turn, `runs` times each, so that both see the
             // machine in the same state.
             let mut one_runs = Vec::new();

@@ -38,6 +38,155 @@ pub(crate) fn damp_rigid(x: &[Vec3A], v: &mut [Vec3A], masses: &[f32], k: f32) {
     apply_rigid(&motion, x, v, masses, k);
 }
 
+/// [`damp_rigid`] on two halves split at `middle`, their sums and their updates each run
+/// through `join` (the same fit, its sums added in another order).
+pub(crate) fn damp_rigid_halves(
+    join: &dyn crate::cloth::Join,
+    middle: usize,
+    x: &[Vec3A],
+    v: &mut [Vec3A],
+    masses: &[f32],
+    k: f32,
+) {
+    let Some(first) = masses.iter().position(|&m| m > 0.0) else {
+        return;
+    };
+    let (Some(&x0), Some(&v0)) = (x.get(first), v.get(first)) else {
+        return;
+    };
+    if middle > x.len() || v.len() != x.len() || masses.len() != x.len() {
+        return;
+    }
+    let (xa, xb) = x.split_at(middle);
+    let (ma, mb) = masses.split_at(middle);
+    let (mut sums_a, mut sums_b) = (MomentSums::default(), MomentSums::default());
+    {
+        let (va, vb) = v.split_at(middle);
+        join.join(
+            &mut || sums_a = MomentSums::over(xa, va, ma.iter().copied(), x0, v0),
+            &mut || sums_b = MomentSums::over(xb, vb, mb.iter().copied(), x0, v0),
+        );
+    }
+    let Some(motion) = sums_a.add(&sums_b).motion(x0, v0) else {
+        return;
+    };
+    let (va, vb) = v.split_at_mut(middle);
+    join.join(&mut || apply_rigid(&motion, xa, va, ma, k), &mut || {
+        apply_rigid(&motion, xb, vb, mb, k)
+    });
+}
+
+/// The mass-weighted sums a rigid fit is made of, taken about a reference position `x0` and
+/// velocity `v0` (so that they stay of the cloth's own size in `f32`).
+#[derive(Clone, Copy, Debug, Default)]
+struct MomentSums {
+    mass: f32,
+    mr_sum: Vec3A,
+    mu_sum: Vec3A,
+    moment: Vec3A,
+    /// sum m r r^T, as its six distinct entries: the diagonal (xx, yy, zz) and the rest
+    /// (xy, yz, zx).
+    diagonal: Vec3A,
+    off_diagonal: Vec3A,
+}
+
+impl MomentSums {
+    fn over(
+        x: &[Vec3A],
+        v: &[Vec3A],
+        masses: impl Iterator<Item = f32>,
+        x0: Vec3A,
+        v0: Vec3A,
+    ) -> Self {
+        let mut s = Self::default();
+        for ((x, v), m) in x.iter().zip(v).zip(masses) {
+            if m > 0.0 {
+                let r = *x - x0;
+                let u = *v - v0;
+                let mr = r * m;
+                s.mass += m;
+                s.mr_sum += mr;
+                s.mu_sum += u * m;
+                s.moment += mr.cross(u);
+                s.diagonal += mr * r;
+                s.off_diagonal += mr * r.yzx();
+            }
+        }
+        s
+    }
+
+    fn add(&self, other: &Self) -> Self {
+        Self {
+            mass: self.mass + other.mass,
+            mr_sum: self.mr_sum + other.mr_sum,
+            mu_sum: self.mu_sum + other.mu_sum,
+            moment: self.moment + other.moment,
+            diagonal: self.diagonal + other.diagonal,
+            off_diagonal: self.off_diagonal + other.off_diagonal,
+        }
+    }
+
+    /// The rigid motion of the sums (taken about `x0`, `v0`); `None` if they hold no mass.
+    fn motion(&self, x0: Vec3A, v0: Vec3A) -> Option<RigidMotion> {
+        let Self {
+            mass,
+            mr_sum,
+            mu_sum,
+            moment,
+            diagonal,
+            off_diagonal,
+        } = *self;
+        if mass <= 0.0 {
+            return None;
+        }
+        let c = mr_sum / mass;
+        let vc = mu_sum / mass;
+        let center_of_mass = x0 + c;
+        let linear_velocity = v0 + vc;
+        let angular_momentum = moment - c.cross(vc) * mass;
+        // The second moments about the centre of mass, then the inertia tensor
+        // sum m (|r|^2 Id - r r^T).
+        let (qxx, qyy, qzz) = (diagonal.x, diagonal.y, diagonal.z);
+        let (qxy, qyz, qxz) = (off_diagonal.x, off_diagonal.y, off_diagonal.z);
+        let (cxx, cyy, czz) = (
+            qxx - mass * c.x * c.x,
+            qyy - mass * c.y * c.y,
+            qzz - mass * c.z * c.z,
+        );
+        let (cxy, cxz, cyz) = (
+            qxy - mass * c.x * c.y,
+            qxz - mass * c.x * c.z,
+            qyz - mass * c.y * c.z,
+        );
+        let (ixx, iyy, izz) = (cyy + czz, cxx + czz, cxx + cyy);
+        let (ixy, ixz, iyz) = (-cxy, -cxz, -cyz);
+        let inertia = Mat3A::from_cols(
+            Vec3A::new(ixx, ixy, ixz),
+            Vec3A::new(ixy, iyy, iyz),
+            Vec3A::new(ixz, iyz, izz),
+        );
+        let trace = ixx + iyy + izz;
+        // A line of particles (a rope) has a singular inertia tensor: regularise it slightly,
+        // which leaves the rotation about the line undetermined (zero) as it should be.
+        let det = inertia.determinant();
+        let angular_velocity = if trace <= 0.0 {
+            Vec3A::ZERO
+        } else if det.abs() > 1e-9 * trace * trace * trace {
+            inertia.inverse() * angular_momentum
+        } else {
+            (inertia + Mat3A::from_diagonal((Vec3A::ONE * 1e-6 * trace).into())).inverse()
+                * angular_momentum
+        };
+        Some(RigidMotion {
+            center_of_mass,
+            linear_velocity,
+            angular_velocity,
+            angular_momentum,
+            mass,
+        })
+    }
+}
+
 /// `v_i += k (rigid velocity at x_i - v_i)` for the particles whose `weights` (inverse masses
 /// or masses) are positive.
 fn apply_rigid(motion: &RigidMotion, x: &[Vec3A], v: &mut [Vec3A], weights: &[f32], k: f32) {
@@ -89,75 +238,7 @@ impl RigidMotion {
     ) -> Option<Self> {
         let first = masses.clone().position(|m| m > 0.0)?;
         let (x0, v0) = (*x.get(first)?, *v.get(first)?);
-        let mut mass = 0.0;
-        let mut mr_sum = Vec3A::ZERO;
-        let mut mu_sum = Vec3A::ZERO;
-        let mut moment = Vec3A::ZERO;
-        // sum m r r^T, as its six distinct entries: the diagonal (xx, yy, zz) and the rest
-        // (xy, yz, zx).
-        let mut diagonal = Vec3A::ZERO;
-        let mut off_diagonal = Vec3A::ZERO;
-        for ((x, v), m) in x.iter().zip(v).zip(masses) {
-            if m > 0.0 {
-                let r = *x - x0;
-                let u = *v - v0;
-                let mr = r * m;
-                mass += m;
-                mr_sum += mr;
-                mu_sum += u * m;
-                moment += mr.cross(u);
-                diagonal += mr * r;
-                off_diagonal += mr * r.yzx();
-            }
-        }
-        if mass <= 0.0 {
-            return None;
-        }
-        let c = mr_sum / mass;
-        let vc = mu_sum / mass;
-        let center_of_mass = x0 + c;
-        let linear_velocity = v0 + vc;
-        let angular_momentum = moment - c.cross(vc) * mass;
-        // The second moments about the centre of mass, then the inertia tensor
-        // sum m (|r|^2 Id - r r^T).
-        let (qxx, qyy, qzz) = (diagonal.x, diagonal.y, diagonal.z);
-        let (qxy, qyz, qxz) = (off_diagonal.x, off_diagonal.y, off_diagonal.z);
-        let (cxx, cyy, czz) = (
-            qxx - mass * c.x * c.x,
-            qyy - mass * c.y * c.y,
-            qzz - mass * c.z * c.z,
-        );
-        let (cxy, cxz, cyz) = (
-            qxy - mass * c.x * c.y,
-            qxz - mass * c.x * c.z,
-            qyz - mass * c.y * c.z,
-        );
-        let (ixx, iyy, izz) = (cyy + czz, cxx + czz, cxx + cyy);
-        let (ixy, ixz, iyz) = (-cxy, -cxz, -cyz);
-        let inertia = Mat3A::from_cols(
-            Vec3A::new(ixx, ixy, ixz),
-            Vec3A::new(ixy, iyy, iyz),
-            Vec3A::new(ixz, iyz, izz),
-        );
-        let trace = ixx + iyy + izz;
-        // A line of particles (a rope) has a singular inertia tensor: regularise it slightly,
-        // which leaves the rotation about the line undetermined (zero) as it should be.
-        let det = inertia.determinant();
-        let angular_velocity = if trace <= 0.0 {
-            Vec3A::ZERO
-        } else if det.abs() > 1e-9 * trace * trace * trace {
-            inertia.inverse() * angular_momentum
-        } else {
-            (inertia + Mat3A::from_diagonal((Vec3A::ONE * 1e-6 * trace).into())).inverse()
-                * angular_momentum
-        };
-        Some(Self {
-            center_of_mass,
-            linear_velocity,
-            angular_velocity,
-            angular_momentum,
-            mass,
-        })
+        MomentSums::over(x, v, masses, x0, v0).motion(x0, v0)
     }
 
     /// The rigid velocity at point `x`.

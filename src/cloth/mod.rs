@@ -42,7 +42,9 @@ pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use settings::{AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
-pub use sim::{ClothSolver, Divergence, Pin, StepTimings, StrainStats};
+pub use sim::{
+    ClothSolver, Divergence, Join, OneThread, Pin, StepTimings, StrainStats, with_helper,
+};
 pub use state::ClothState;
 pub use volume::VolumeSettings;
 pub use weld::{Welded, weld};

@@ -17,7 +17,7 @@ use super::mesh::{vertex_normals, write_colors, write_normals};
 use super::model::ClothModel;
 use super::render_mesh::{ClothSimulationMesh, EmbeddedRender};
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use super::sim::{ClothSolver, Divergence, StepTimings};
+use super::sim::{ClothSolver, Divergence, Join, OneThread, StepTimings, with_helper};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
 use crate::collide::{
@@ -210,9 +210,13 @@ pub struct DrapeSettings {
     pub teleport: Option<Teleport>,
     /// The most threads that step cloths at once. `1` steps them one after another on the
     /// schedule's thread; more step independent cloths at the same time on Bevy's
-    /// [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool) (its threads and the caller's). Every
-    /// cloth is stepped alike either way: results do not depend on the count. `None` uses
-    /// every thread of the pool. Default: `None`.
+    /// [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool) (its threads and the caller's), each
+    /// of them stepped as on one thread, so that several cloths give the same result
+    /// whatever the count. A single cloth is instead split over two threads
+    /// ([`ClothSolver::step_with`](crate::cloth::ClothSolver::step_with): at least 2048
+    /// particles, numbered so that the middle index cuts it along a short seam): its result
+    /// then differs from one thread's by the order of its sweeps, and is the same on every
+    /// run. `None` uses every thread of the pool. Default: `None`.
     pub max_threads: Option<std::num::NonZeroUsize>,
 }
 
@@ -553,11 +557,31 @@ fn step_cloths(
     let pool = bevy::tasks::ComputeTaskPool::try_get();
     // The scope's own thread works too.
     let available = pool.map_or(1, |p| p.thread_num() + 1);
-    let threads = drape
+    let allowed = drape
         .max_threads
-        .map_or(available, |cap| cap.get().min(available))
-        .min(cloths.iter().len());
+        .map_or(available, |cap| cap.get().min(available));
+    let count = cloths.iter().len();
+    let threads = allowed.min(count);
     match pool {
+        // One cloth that splits, two threads: its sweeps in two halves at once
+        // (`ClothSolver::step_with`).
+        Some(pool)
+            if count == 1
+                && allowed > 1
+                && cloths.iter_mut().all(|(_, _, mut simulation, settings)| {
+                    let settings = settings.unwrap_or(context.defaults);
+                    simulation.sim.splits_in_two(&settings.solver)
+                }) =>
+        {
+            for (entity, cloth, mut simulation, settings) in &mut cloths {
+                let stepped = with_helper(pool, |join| {
+                    step_cloth(entity, cloth, &mut simulation, settings, &context, join)
+                });
+                if let Some(d) = stepped {
+                    diverged.write(d);
+                }
+            }
+        }
         Some(pool) if threads > 1 => {
             // `threads` workers take the cloths one at a time from a shared queue, the
             // costliest (by its last step) first so that the last ones to finish are short:
@@ -579,9 +603,9 @@ fn step_cloths(
                             let Ok(Some((k, (entity, cloth, simulation, settings)))) = next else {
                                 break;
                             };
-                            if let Some(d) =
-                                step_cloth(*entity, cloth, simulation, *settings, context)
-                            {
+                            if let Some(d) = step_cloth(
+                                *entity, cloth, simulation, *settings, context, &OneThread,
+                            ) {
                                 diverged.push((k, d));
                             }
                         }
@@ -595,7 +619,14 @@ fn step_cloths(
         }
         _ => {
             for (entity, cloth, mut simulation, settings) in &mut cloths {
-                if let Some(d) = step_cloth(entity, cloth, &mut simulation, settings, &context) {
+                if let Some(d) = step_cloth(
+                    entity,
+                    cloth,
+                    &mut simulation,
+                    settings,
+                    &context,
+                    &OneThread,
+                ) {
                     diverged.write(d);
                 }
             }
@@ -628,6 +659,7 @@ fn step_cloth(
     simulation: &mut ClothSimulation,
     settings: Option<&ClothSettings>,
     context: &StepContext,
+    join: &dyn Join,
 ) -> Option<ClothDiverged> {
     let dt = context.dt;
     let settings = settings.unwrap_or(context.defaults);
@@ -739,7 +771,7 @@ fn step_cloth(
     {
         sim.set_wind(wind, context.elapsed);
     }
-    if let Err(err) = sim.step(&settings.solver, context.drape.gravity, dt) {
+    if let Err(err) = sim.step_with(&settings.solver, context.drape.gravity, dt, join) {
         if !simulation.warned_step_input {
             warn!("cloth {entity} is not stepped: {err}");
             simulation.warned_step_input = true;

@@ -6,10 +6,11 @@ use std::time::Instant;
 
 use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 
+use bevy::tasks::TaskPool;
 use bevy_drape::cloth::internals::SelfCollision;
 use bevy_drape::cloth::{
     AirSettings, ClothModel, ClothSolver, Divergence, DivergenceBounds, GridDesc, Gusts,
-    SolverSettings, WindField,
+    SolverSettings, WindField, with_helper,
 };
 use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 
@@ -64,6 +65,17 @@ impl HangingCloth {
     /// figures, the speed-against-accuracy study and the tests. The run stops early if the
     /// cloth diverges ([`DivergenceBounds::default`]).
     pub fn run(&self, settings: &SolverSettings, frames: u32) -> SceneRun {
+        self.run_on(settings, frames, None)
+    }
+
+    /// [`HangingCloth::run`], each step split over the step's thread and a helper on `pool`
+    /// ([`with_helper`]) if one is given.
+    pub fn run_on(
+        &self,
+        settings: &SolverSettings,
+        frames: u32,
+        pool: Option<&TaskPool>,
+    ) -> SceneRun {
         let mut sim = self.build();
         let dt = 1.0 / FRAME_RATE;
         let mut run = Trajectory::default();
@@ -71,8 +83,11 @@ impl HangingCloth {
         let mut divergence = None;
         for frame in 1..=frames {
             let start = Instant::now();
-            sim.step(settings, GRAVITY, dt)
-                .expect("the scene runs with valid settings");
+            match pool {
+                Some(pool) => with_helper(pool, |join| sim.step_with(settings, GRAVITY, dt, join)),
+                None => sim.step(settings, GRAVITY, dt),
+            }
+            .expect("the scene runs with valid settings");
             run.frame_seconds.push(start.elapsed().as_secs_f64());
             run.substeps.push(sim.last_substeps());
             finite &= sim.is_finite();

@@ -28,6 +28,11 @@
 //! off `x86_64` they are those scalar functions, lane by lane. Inverse masses are copied into
 //! the batches by [`PairBatches::set_weights`] (once per step: they do not change within
 //! one).
+//!
+//! Tethers ([`PairBatches::project_tethers`]) read their anchors from a list of their own
+//! rather than from the particles they move: a part of the cloth swept on one thread then
+//! reads the pins of another part from its own copy, not from particles another thread
+//! writes.
 
 use bevy::math::{Vec3A, Vec4};
 
@@ -99,18 +104,21 @@ pub struct PairBatches {
     /// 80 bytes.
     waits: Vec<bool>,
     pairs: usize,
-    /// One past the largest particle index the batches name.
+    /// One past the largest particle index the batches name (`a` and, if it moves, `b`).
     particles: usize,
+    /// One past the largest anchor index (`b` of tethers, which do not move it), or 0.
+    anchors: usize,
     /// Whether `b` particles move (limits, distances) or are anchors that are only read.
     moves_b: bool,
 }
 
 impl PairBatches {
     /// Batches `pairs` (particle indices, each with its length), keeping the list's order as
-    /// closely as batches allow. With `moves_b` false, the second particle of a pair is an
-    /// anchor that is only read (a pin, as for tethers), so pairs may share it. Pairs with an
-    /// index at or past `particle_count` (or `MAX_PARTICLES`), or with both ends the same
-    /// particle, are left out (they constrain nothing). Inverse masses start at zero: call
+    /// closely as batches allow. With `moves_b` false, the second index of a pair names an
+    /// anchor in a list of its own that is only read (a pin, as for tethers:
+    /// [`PairBatches::project_tethers`]), so pairs may share it. Pairs with an index at or
+    /// past `particle_count` (or `MAX_PARTICLES`), or with both ends the same particle, are
+    /// left out (they constrain nothing). Inverse masses start at zero: call
     /// [`PairBatches::set_weights`] before projecting.
     pub fn new(
         pairs: impl IntoIterator<Item = ([u32; 2], f32)>,
@@ -121,7 +129,9 @@ impl PairBatches {
         let (pairs, lengths): (Vec<[u32; 2]>, Vec<f32>) = pairs
             .into_iter()
             .filter(|&([a, b], _)| {
-                a != b && (a as usize) < particle_count && (b as usize) < particle_count
+                (a != b || !moves_b)
+                    && (a as usize) < particle_count
+                    && (b as usize) < particle_count
             })
             .unzip();
         // The batch that last moved each particle; ids start at SEPARATION, so that a
@@ -139,9 +149,10 @@ impl PairBatches {
             // SEPARATION - 1 ones (whether it moves `b` or only reads it).
             let mut try_take = |k: usize, lanes: &mut Vec<usize>| -> bool {
                 let [a, b] = pairs[k];
+                // An anchor is never moved: only a particle `b` that moves can be busy.
                 let free = lanes.len() < LANES
                     && moved[a as usize] + SEPARATION <= id
-                    && moved[b as usize] + SEPARATION <= id;
+                    && (!moves_b || moved[b as usize] + SEPARATION <= id);
                 if free {
                     moved[a as usize] = id;
                     if moves_b {
@@ -191,23 +202,28 @@ impl PairBatches {
             });
             batch_waits.push(waits);
         }
-        let particles = batches
-            .iter()
-            .flat_map(|b| b.a().into_iter().chain(b.b()))
-            .map(|i| i as usize + 1)
-            .max()
-            .unwrap_or(0);
+        let bound = |indices: &mut dyn Iterator<Item = u32>| {
+            indices.map(|i| i as usize + 1).max().unwrap_or(0)
+        };
+        let particles = bound(&mut batches.iter().flat_map(|b| b.a()));
+        let b_bound = bound(&mut batches.iter().flat_map(|b| b.b()));
+        let (particles, anchors) = if moves_b {
+            (particles.max(b_bound), 0)
+        } else {
+            (particles, b_bound)
+        };
         Self {
             batches,
             waits: batch_waits,
             pairs: pairs.len(),
             particles,
+            anchors,
             moves_b,
         }
     }
 
     /// Copies the inverse masses `w` into the batches (for anchors that are only read, zero).
-    /// Does nothing if `w` does not hold every particle the batches name.
+    /// Does nothing if `w` does not hold every particle the batches move.
     pub fn set_weights(&mut self, w: &[f32]) {
         if w.len() < self.particles {
             return;
@@ -232,6 +248,15 @@ impl PairBatches {
     /// The batches, in sweep order.
     pub fn batches(&self) -> &[Batch] {
         &self.batches
+    }
+
+    /// The constraints, `([a, b], length)`, in sweep order (padding lanes left out).
+    pub fn pairs(&self) -> impl Iterator<Item = ([u32; 2], f32)> + '_ {
+        self.batches.iter().flat_map(|batch| {
+            (0..LANES)
+                .filter(|&k| !batch.is_padding(k))
+                .map(|k| ([batch.a()[k], batch.b()[k]], batch.length[k]))
+        })
     }
 
     /// Per batch, whether it waits for the previous one (see the module documentation).
@@ -285,21 +310,29 @@ impl PairBatches {
     }
 
     /// Projects every batch as the unilateral limits `|x_a - x_b| <= length` (stiffness 1,
-    /// see `stretch_limits.rs`); with `moves_b` false (tethers,
-    /// see `constraints.rs`) only `a` moves. A pair whose inverse
-    /// masses sum to zero is left alone. Does nothing if `x` is too short.
+    /// see `stretch_limits.rs`), both ends moved by their inverse masses. A pair whose
+    /// inverse masses sum to zero is left alone. Does nothing if `x` is too short or the
+    /// batches were made for tethers.
     pub fn project_limits(&self, x: &mut [Vec3A]) {
-        if x.len() < self.particles {
+        if x.len() < self.particles || !self.moves_b {
             return;
         }
-        // SAFETY: as in `project_distances`.
-        unsafe {
-            if self.moves_b {
-                lanes::sweep_limits::<true>(&self.batches, &self.waits, x);
-            } else {
-                lanes::sweep_limits::<false>(&self.batches, &self.waits, x);
-            }
+        let xp: *mut [Vec3A] = x;
+        // SAFETY: as in `project_distances`; the limits read their `b` from `x`.
+        unsafe { lanes::sweep_limits::<true>(&self.batches, &self.waits, xp, xp) }
+    }
+
+    /// Projects every batch as a tether `|x_a - anchors_b| <= length` (stiffness 1, see
+    /// `constraints.rs`): only `a` moves, towards its anchor, read from `anchors` (the pins'
+    /// positions, copied by the caller). Does nothing if `x` or `anchors` is too short or
+    /// the batches were made for two moving particles.
+    pub fn project_tethers(&self, x: &mut [Vec3A], anchors: &[Vec3A]) {
+        if x.len() < self.particles || anchors.len() < self.anchors || self.moves_b {
+            return;
         }
+        // SAFETY: as in `project_distances`, and every anchor index is below
+        // `self.anchors`, which `anchors` holds; `anchors` is only read.
+        unsafe { lanes::sweep_limits::<false>(&self.batches, &self.waits, x, anchors) }
     }
 }
 
@@ -362,15 +395,19 @@ mod lanes {
         unsafe { x.cast::<u8>().add(at as usize).cast::<Vec3A>().cast_mut() }
     }
 
-    /// `x[a_k] - x[b_k]` for each lane, and the squared lengths as four lanes.
+    /// `xa[a_k] - xb[b_k]` for each lane, and the squared lengths as four lanes.
     ///
     /// # Safety
-    /// Every particle of `batch` is in `x`.
+    /// Every `a` of `batch` is in `xa`, every `b` in `xb`, and both can be read.
     #[inline(always)]
-    unsafe fn differences(x: &[Vec3A], batch: &Batch) -> ([__m128; LANES], __m128) {
+    unsafe fn differences(
+        xa: *const [Vec3A],
+        xb: *const [Vec3A],
+        batch: &Batch,
+    ) -> ([__m128; LANES], __m128) {
         let d: [__m128; LANES] = std::array::from_fn(|k| {
             // SAFETY: the caller's promise.
-            let (a, b) = unsafe { (*at(x, batch.a_at[k]), *at(x, batch.b_at[k])) };
+            let (a, b) = unsafe { (*at(xa, batch.a_at[k]), *at(xb, batch.b_at[k])) };
             __m128::from(a - b)
         });
         // SAFETY: baseline intrinsics (module documentation).
@@ -442,7 +479,7 @@ mod lanes {
             |batch| {
                 // SAFETY: the caller's promise; `xp` is `x`, used by one closure at a time.
                 unsafe {
-                    let (d, len_sq) = differences(&*xp, batch);
+                    let (d, len_sq) = differences(xp, xp, batch);
                     (d, _mm_sqrt_ps(len_sq))
                 }
             },
@@ -482,18 +519,21 @@ mod lanes {
         );
     }
 
-    /// `MOVES_B`: whether `b` moves too (a limit between two particles) or is an anchor (a
-    /// tether: only `a` moves).
+    /// `MOVES_B`: whether `b` moves too (a limit between two particles, read from and
+    /// written to `x`) or is an anchor read from `xb` (a tether: only `a` moves).
     ///
     /// # Safety
-    /// Every index of the batches is below `x.len()`.
+    /// Every `a` of the batches is below `x.len()` and every `b` below `xb.len()`; `x` is
+    /// valid for writes and used by no one else; with `MOVES_B`, `xb` is `x`; without, `xb`
+    /// is valid for reads and does not overlap `x`.
     #[inline(always)]
     pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(
         batches: &[Batch],
         waits: &[bool],
-        x: &mut [Vec3A],
+        x: *mut [Vec3A],
+        xb: *const [Vec3A],
     ) {
-        let xp = x as *mut [Vec3A];
+        let xp = x;
         pipelined(
             batches,
             waits,
@@ -501,7 +541,7 @@ mod lanes {
                 // SAFETY: the caller's promise; baseline intrinsics; `xp` is `x`, used by one
                 // closure at a time.
                 unsafe {
-                    let (d, len_sq) = differences(&*xp, batch);
+                    let (d, len_sq) = differences(xp, xb, batch);
                     let limit = __m128::from(batch.length);
                     let stretched = _mm_cmpgt_ps(len_sq, _mm_mul_ps(limit, limit));
                     (d, len_sq, stretched)
@@ -577,30 +617,43 @@ mod lanes {
         }
     }
 
-    /// Safe in fact; `unsafe` to match the SIMD kernels.
+    /// # Safety
+    /// As the SIMD kernel's.
     pub(super) unsafe fn sweep_limits<const MOVES_B: bool>(
         batches: &[Batch],
         _waits: &[bool],
-        x: &mut [Vec3A],
+        x: *mut [Vec3A],
+        xb: *const [Vec3A],
     ) {
+        // SAFETY: the caller's promise.
+        let x = unsafe { &mut *x };
         for batch in batches {
-            each_lane(batch, x, |k, pair, w| {
-                let length = batch.length[k];
-                if MOVES_B {
+            if MOVES_B {
+                each_lane(batch, x, |k, pair, w| {
                     let limit = StretchLimit {
                         particles: [0, 1],
-                        length,
+                        length: batch.length[k],
                     };
                     project_stretch_limit(pair, w, &limit);
-                } else {
+                });
+            } else {
+                for k in 0..LANES {
+                    if batch.is_padding(k) {
+                        continue;
+                    }
+                    let a = batch.a()[k] as usize;
+                    // SAFETY: the caller's promise.
+                    let anchor = unsafe { (*xb)[batch.b()[k] as usize] };
+                    let mut pair = [x[a], anchor];
                     let tether = Tether {
                         particle: 0,
                         anchor: 1,
-                        length,
+                        length: batch.length[k],
                     };
-                    project_tether(pair, w, &tether);
+                    project_tether(&mut pair, &[batch.wa[k], 0.0], &tether);
+                    x[a] = pair[0];
                 }
-            });
+            }
         }
     }
 }

@@ -264,13 +264,16 @@ fn batched_limits_and_tethers_match_the_scalar_projections() {
         "nothing moved"
     );
 
-    // Tethers of every particle to both pins: the pins are shared between lanes.
+    // Tethers of every particle to both pins, read from the anchor list [x0, x5]: the pins
+    // are shared between lanes.
+    let pins = [0u32, 5];
+    let anchors: Vec<Vec3A> = pins.iter().map(|&p| x0[p as usize]).collect();
     let mut tethers = Vec::new();
     let mut tether_lengths = Vec::new();
-    for anchor in [0u32, 5] {
+    for slot in [0u32, 1] {
         for p in 0..x0.len() as u32 {
             if w[p as usize] > 0.0 {
-                tethers.push([p, anchor]);
+                tethers.push([p, slot]);
                 tether_lengths.push(0.2);
             }
         }
@@ -282,11 +285,11 @@ fn batched_limits_and_tethers_match_the_scalar_projections() {
         "tethers fill every lane"
     );
     let mut x = x0.clone();
-    batched.project_limits(&mut x);
+    batched.project_tethers(&mut x, &anchors);
     let reference = scalar_reference(&batched, &x0, |x, batch, k| {
         let tether = Tether {
             particle: batch.a()[k],
-            anchor: batch.b()[k],
+            anchor: pins[batch.b()[k] as usize],
             length: batch.length[k],
         };
         project_tether(x, &w, &tether);
@@ -294,8 +297,17 @@ fn batched_limits_and_tethers_match_the_scalar_projections() {
     for (p, q) in x.iter().zip(&reference) {
         assert!(p.distance(*q) < 1e-6, "tethers: {p} against {q}");
     }
+    assert!(
+        x.iter().zip(&x0).any(|(p, q)| p.distance(*q) > 1e-3),
+        "no tether pulled"
+    );
     assert_eq!(x[0], x0[0]);
     assert_eq!(x[5], x0[5]);
+    // Too short an anchor list, or limits asked to project as tethers: nothing moves.
+    let mut y = x0.clone();
+    batched.project_tethers(&mut y, &anchors[..1]);
+    batched.project_limits(&mut y);
+    assert_eq!(y, x0);
 }
 
 #[test]

@@ -24,11 +24,15 @@ use crate::collide::{FrameStep, SolverCollider};
 use crate::error::{ClothError, ColliderError};
 
 mod diagnostics;
+mod halves;
+mod parallel;
 mod passes;
 mod step;
 mod timings;
 
 pub use diagnostics::{Divergence, StrainStats};
+use halves::Halves;
+pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
 use timings::Laps;
 pub use timings::StepTimings;
@@ -66,8 +70,16 @@ pub struct ClothSolver {
     state: ClothState,
     pins: Vec<Pin>,
     tethers: Vec<Tether>,
-    /// `tethers` in batches of four.
+    /// `tethers` in batches of four, each naming its pin by its place in `tether_pins`.
     tether_batches: PairBatches,
+    /// The pins the tethers hold to...
+    tether_pins: Vec<u32>,
+    /// ...and their positions in the current substep (the tethers read them from here).
+    tether_anchors: Vec<Vec3A>,
+    /// The batched constraints split in two halves for two threads (`halves.rs`), made the
+    /// first time a step gets a parallel [`Join`] (`None` inside if the cloth does not
+    /// split), and made again when the tethers or the inverse masses change.
+    halves: Option<Option<Halves>>,
     /// The long-range stretch limits along the straight lines of the rest shape
     /// (`stretch_limits.rs`), in batches of four.
     limit_batches: PairBatches,
@@ -184,6 +196,9 @@ impl ClothSolver {
             edge_batch_lambdas: vec![Vec4::ZERO; edge_batches.len()],
             edge_batches,
             tether_batches: PairBatches::default(),
+            tether_pins: Vec::new(),
+            tether_anchors: Vec::new(),
+            halves: None,
             isometric_prepared: PreparedIsometric::default(),
             dihedral_lambdas: Vec::with_capacity(model.bending_pairs.len()),
             isometric_lambdas: Vec::with_capacity(model.bending_pairs.len()),
@@ -533,6 +548,10 @@ impl ClothSolver {
     /// tether never holds the cloth tighter than its edges would.
     fn rebuild_tethers(&mut self) {
         self.tethers.clear();
+        self.tether_pins.clear();
+        self.tether_anchors.clear();
+        self.tether_batches = PairBatches::default();
+        self.halves = None;
         if self.pins.is_empty() && self.drag.is_none() {
             return;
         }
@@ -552,17 +571,19 @@ impl ClothSolver {
             paths.from(rest, anchor, &mut along);
             lengths.push(along.clone());
         }
+        // (length, the pin's place in `anchors`).
         let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(anchors.len());
+        let mut slots = Vec::new();
         for (i, &w) in self.state.inverse_masses.iter().enumerate() {
             if w == 0.0 {
                 continue;
             }
             nearest.clear();
             nearest.extend(
-                anchors
+                lengths
                     .iter()
-                    .zip(&lengths)
-                    .map(|(&anchor, l)| (l[i], anchor))
+                    .enumerate()
+                    .map(|(slot, l)| (l[i], slot as u32))
                     .filter(|(l, _)| l.is_finite()),
             );
             let k = TETHERS_PER_PARTICLE.min(nearest.len());
@@ -572,23 +593,30 @@ impl ClothSolver {
             if nearest.len() > k {
                 nearest.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
             }
-            for &(length, anchor) in &nearest[..k] {
+            for &(length, slot) in &nearest[..k] {
+                slots.push(slot);
                 self.tethers.push(Tether {
                     particle: i as u32,
-                    anchor,
+                    anchor: anchors[slot as usize],
                     length,
                 });
             }
         }
-        // Consecutive tethers of different particles do not wait for each other.
-        self.tethers.sort_by_key(|t| t.anchor);
+        // Grouped by pin: consecutive tethers of different particles do not wait for each
+        // other.
+        let mut order: Vec<usize> = (0..self.tethers.len()).collect();
+        order.sort_by_key(|&k| slots[k]);
+        self.tethers = order.iter().map(|&k| self.tethers[k]).collect();
         self.tether_batches = PairBatches::new(
             self.tethers
                 .iter()
-                .map(|t| ([t.particle, t.anchor], t.length)),
+                .zip(order.iter().map(|&k| slots[k]))
+                .map(|(t, slot)| ([t.particle, slot], t.length)),
             self.state.positions.len(),
             false,
         );
+        self.tether_anchors = vec![Vec3A::ZERO; anchors.len()];
+        self.tether_pins = anchors;
         self.tether_batches.set_weights(&self.state.inverse_masses);
     }
 
@@ -608,11 +636,30 @@ impl ClothSolver {
     /// Bad input is refused, not stepped, so that nothing non-finite reaches the state: settings
     /// out of range ([`SolverSettings::validate`]), a non-finite acceleration, or a negative or
     /// non-finite `dt` return the error and leave the cloth as it was; `dt = 0` does nothing.
+    ///
+    /// One thread; [`ClothSolver::step_with`] splits a large cloth over two.
     pub fn step(
         &mut self,
         settings: &SolverSettings,
         acceleration: Vec3,
         dt: f32,
+    ) -> Result<(), ClothError> {
+        self.step_with(settings, acceleration, dt, &OneThread)
+    }
+
+    /// [`ClothSolver::step`], with the sweeps of XPBD and PBD (edges, stretch limits, tethers,
+    /// isometric bending) run in two halves at once through `join` when it is parallel
+    /// ([`with_helper`]) and the cloth splits (`sim/halves.rs`: at least 2048 particles,
+    /// numbered so that its middle index cuts it along a short seam, as a grid's rows are).
+    /// The result is the same on every run and whichever thread runs which half, and
+    /// differs from one thread's by the order of the sweep (the seam's constraints after the
+    /// halves).
+    pub fn step_with(
+        &mut self,
+        settings: &SolverSettings,
+        acceleration: Vec3,
+        dt: f32,
+        join: &dyn Join,
     ) -> Result<(), ClothError> {
         settings.validate()?;
         if let Some(&value) = acceleration.to_array().iter().find(|a| !a.is_finite()) {
@@ -679,13 +726,39 @@ impl ClothSolver {
             .adaptive
             .filter(|_| settings.method != SolverMethod::MassSpring)
         {
-            Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt),
-            None => self.step_substeps(settings, acceleration, dt),
+            Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt, join),
+            None => self.step_substeps(settings, acceleration, dt, join),
         }
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
         }
         Ok(())
+    }
+
+    /// Whether [`ClothSolver::step_with`] splits this cloth over two threads with `settings`:
+    /// XPBD or PBD without a volume constraint, at least 2048 particles numbered so that the
+    /// middle index cuts the cloth along a short seam (at most a tenth of its constraints
+    /// across it). Makes the split the first time it is asked (and again after the pins or
+    /// the masses change).
+    pub fn splits_in_two(&mut self, settings: &SolverSettings) -> bool {
+        let method = matches!(
+            settings.method,
+            SolverMethod::Xpbd | SolverMethod::Pbd { .. }
+        );
+        if !method || settings.volume.is_some() {
+            return false;
+        }
+        let halves = self.halves.get_or_insert_with(|| {
+            Halves::new(
+                &self.state.inverse_masses,
+                &self.edge_batches,
+                &self.limit_batches,
+                &self.tether_batches,
+                &self.tether_pins,
+                &self.isometric_pairs,
+            )
+        });
+        halves.is_some()
     }
 
     /// Copies the inverse masses into the batches if they changed since the last step (they
@@ -694,6 +767,7 @@ impl ClothSolver {
         let w = &self.state.inverse_masses;
         let seen = &mut self.weights_seen;
         if !seen.iter().copied().eq(w.iter().map(|m| m.to_bits())) {
+            self.halves = None;
             self.edge_batches.set_weights(w);
             self.limit_batches.set_weights(w);
             self.tether_batches.set_weights(w);
@@ -717,6 +791,7 @@ impl ClothSolver {
         budget: &AdaptiveSubsteps,
         acceleration: Vec3,
         dt: f32,
+        join: &dyn Join,
     ) {
         let (lo, hi) = (
             budget.min_substeps.max(1),
@@ -731,7 +806,7 @@ impl ClothSolver {
         self.adaptive_backup.clone_from(&self.state);
         let mut run = 0;
         loop {
-            self.step_substeps(&chosen, acceleration, dt);
+            self.step_substeps(&chosen, acceleration, dt, join);
             run += chosen.substeps;
             let strain = self.strain().max;
             let next = budget.next(chosen.substeps, strain, &mut self.adaptive_calm);

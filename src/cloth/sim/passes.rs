@@ -3,8 +3,9 @@
 
 use bevy::math::Vec3A;
 
+use super::parallel::Join;
 use crate::cloth::constraints::{Projection, project_distance};
-use crate::cloth::damping::{damp_plain, damp_rigid};
+use crate::cloth::damping::{damp_plain, damp_rigid, damp_rigid_halves};
 use crate::cloth::model::{Edge, EdgeKind};
 use crate::cloth::settings::{DampingMode, SolverSettings};
 
@@ -128,7 +129,9 @@ pub(super) fn project_edges_jacobi(
 }
 
 /// Damps the velocities by the fraction `k` as [`SolverSettings::damping_mode`] says.
-/// `masses` are the free particles' masses (0 for pinned ones), `w` the inverse masses.
+/// `masses` are the free particles' masses (0 for pinned ones), `w` the inverse masses. With
+/// `middle`, the two halves split there are damped at the same time through `join`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn damp(
     settings: &SolverSettings,
     k: f32,
@@ -136,12 +139,22 @@ pub(super) fn damp(
     v: &mut [Vec3A],
     w: &[f32],
     masses: &[f32],
+    join: &dyn Join,
+    middle: Option<usize>,
 ) {
-    if k > 0.0 {
-        match settings.damping_mode {
-            DampingMode::Plain => damp_plain(v, w, k),
-            DampingMode::Rigid => damp_rigid(x, v, masses, k),
+    if k <= 0.0 {
+        return;
+    }
+    let middle = middle.filter(|&m| m <= v.len() && w.len() == v.len());
+    match (settings.damping_mode, middle) {
+        (DampingMode::Plain, None) => damp_plain(v, w, k),
+        (DampingMode::Plain, Some(m)) => {
+            let (va, vb) = v.split_at_mut(m);
+            let (wa, wb) = w.split_at(m);
+            join.join(&mut || damp_plain(va, wa, k), &mut || damp_plain(vb, wb, k));
         }
+        (DampingMode::Rigid, None) => damp_rigid(x, v, masses, k),
+        (DampingMode::Rigid, Some(m)) => damp_rigid_halves(join, m, x, v, masses, k),
     }
 }
 

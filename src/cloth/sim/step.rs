@@ -33,6 +33,8 @@
 use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::ClothSolver;
+use super::halves::{Halves, Sweep};
+use super::parallel::Join;
 use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
 use super::timings::{Laps, StepTimings};
 use crate::cloth::constraints::{Projection, project_bending};
@@ -94,7 +96,13 @@ impl Projections {
 impl ClothSolver {
     /// One fixed step of `settings.method` at `settings.substeps` (more with automatic
     /// substeps), through the pipeline of the module docs.
-    pub(super) fn step_substeps(&mut self, settings: &SolverSettings, acceleration: Vec3, dt: f32) {
+    pub(super) fn step_substeps(
+        &mut self,
+        settings: &SolverSettings,
+        acceleration: Vec3,
+        dt: f32,
+        join: &dyn Join,
+    ) {
         let method = settings.method;
         let hybrid = method.is_hybrid();
         let uses_springs = hybrid || method == SolverMethod::MassSpring;
@@ -139,6 +147,16 @@ impl ClothSolver {
             self.bend_alpha_prepared = alpha_tilde.to_bits();
         }
         let long_range = settings.projects_long_range();
+        // Two halves at once (`halves.rs`).
+        let splits = join.is_parallel() && self.splits_in_two(settings);
+        let mut halves = self
+            .halves
+            .as_mut()
+            .and_then(Option::as_mut)
+            .filter(|_| splits);
+        if let (Some(halves), Some(alpha_tilde)) = (halves.as_deref_mut(), projections.isometric) {
+            halves.prepare_bending(&self.state.inverse_masses, alpha_tilde);
+        }
         // XPBD and PBD let a contact remove the substep's gravity as the particle rests; the
         // spring methods have already integrated it into the velocity.
         let contact_push = if uses_springs { Vec3A::ZERO } else { a * h };
@@ -186,33 +204,36 @@ impl ClothSolver {
         for s in 0..substeps {
             // 1. Predict (the air's share first, as a kick: it is constant over the step).
             let half_h2_a = a * (0.5 * h * h);
+            let middle = halves.as_deref().map(Halves::middle);
             match springs.as_deref_mut() {
-                None if air.is_some() => {
-                    let air = air.map_or(&[][..], |a| a.as_slice());
-                    for ((((x, x_prev), v), &w), &air) in x
-                        .iter_mut()
-                        .zip(x_prev.iter_mut())
-                        .zip(v.iter_mut())
-                        .zip(&*w)
-                        .zip(air)
-                    {
-                        *x_prev = *x;
-                        if w > 0.0 {
-                            *v += air * h;
-                            *x += *v * h + half_h2_a;
+                None => per_half(join, middle, x, x_prev, v, w, |p| match air {
+                    Some(air) => {
+                        let air = air.get(p.first..).unwrap_or(&[]);
+                        for ((((x, x_prev), v), &w), &air) in
+                            p.x.iter_mut()
+                                .zip(p.x_prev.iter_mut())
+                                .zip(p.v.iter_mut())
+                                .zip(p.w)
+                                .zip(air)
+                        {
+                            *x_prev = *x;
+                            if w > 0.0 {
+                                *v += air * h;
+                                *x += *v * h + half_h2_a;
+                            }
                         }
                     }
-                }
-                None => {
-                    for (((x, x_prev), v), &w) in
-                        x.iter_mut().zip(x_prev.iter_mut()).zip(&*v).zip(&*w)
-                    {
-                        *x_prev = *x;
-                        if w > 0.0 {
-                            *x += *v * h + half_h2_a;
+                    None => {
+                        for (((x, x_prev), v), &w) in
+                            p.x.iter_mut().zip(p.x_prev.iter_mut()).zip(&*p.v).zip(p.w)
+                        {
+                            *x_prev = *x;
+                            if w > 0.0 {
+                                *x += *v * h + half_h2_a;
+                            }
                         }
                     }
-                }
+                }),
                 Some(springs) => {
                     if let Some(air) = air {
                         for ((v, &air), &w) in v.iter_mut().zip(air).zip(&*w) {
@@ -241,6 +262,12 @@ impl ClothSolver {
                 if uses_springs {
                     v[p] = (pin.end - pin.start) * pin_velocity;
                 }
+            }
+            for (anchor, &pin) in self.tether_anchors.iter_mut().zip(&self.tether_pins) {
+                *anchor = x[pin as usize];
+            }
+            if let Some(halves) = halves.as_deref_mut() {
+                halves.begin_substep(x);
             }
 
             t.predict += laps.lap();
@@ -271,7 +298,8 @@ impl ClothSolver {
             match springs.as_deref_mut() {
                 Some(springs) => springs.lambdas.fill(0.0),
                 None if volume.is_some() => self.edge_lambdas.fill(0.0),
-                None if matches!(batch_stretch, Projection::Xpbd { .. }) => {
+                // The halves zero their own.
+                None if matches!(batch_stretch, Projection::Xpbd { .. }) && halves.is_none() => {
                     self.edge_batch_lambdas.fill(Vec4::ZERO);
                 }
                 None => {}
@@ -285,15 +313,28 @@ impl ClothSolver {
                 self.dihedral_lambdas.clear();
                 self.dihedral_lambdas.resize(dihedral, 0.0);
                 self.isometric_lambdas.clear();
-                self.isometric_lambdas
-                    .resize(self.isometric_prepared.len(), Vec3A::ZERO);
+                if halves.is_none() {
+                    self.isometric_lambdas
+                        .resize(self.isometric_prepared.len(), Vec3A::ZERO);
+                }
             }
             for iteration in 0..iterations {
-                if long_range {
+                if let Some(halves) = halves.as_deref_mut() {
+                    let sweep = Sweep {
+                        long_range,
+                        stretch: batch_stretch,
+                        isometric: projections.isometric.is_some(),
+                        first: iteration == 0,
+                    };
+                    halves.project(x, sweep, join);
+                    if !colliders.is_empty() {
+                        project_held_edges(&self.model.edges, x, w, self.contacts.held());
+                    }
+                } else if long_range {
                     self.limit_batches.project_limits(x);
-                    self.tether_batches.project_limits(x);
+                    self.tether_batches.project_tethers(x, &self.tether_anchors);
                 }
-                if let Some(stretch) = projections.stretch {
+                if let Some(stretch) = projections.stretch.filter(|_| halves.is_none()) {
                     let (edges, lambdas) = match springs.as_deref_mut() {
                         Some(springs) => (&springs.set.structural_edges, &mut springs.lambdas),
                         None => (&self.model.edges, &mut self.edge_lambdas),
@@ -326,7 +367,7 @@ impl ClothSolver {
                 // Bending in every iteration, its multipliers accumulated over the substep's
                 // iterations, as XPBD prescribes.
                 if let Some(bend) = projections.bend {
-                    if projections.isometric.is_some() {
+                    if projections.isometric.is_some() && halves.is_none() {
                         self.isometric_prepared
                             .project(x, &mut self.isometric_lambdas);
                     }
@@ -395,14 +436,19 @@ impl ClothSolver {
                 }
             } else if !mass_spring {
                 let h_a = a * h;
-                for (((x, x_prev), v), &w) in x.iter().zip(&*x_prev).zip(v.iter_mut()).zip(&*w) {
-                    if w > 0.0 {
-                        let predicted = *x_prev + (*v * h + half_h2_a);
-                        *v += h_a + (*x - predicted) * inv_h;
-                    } else {
-                        *v = (*x - *x_prev) * inv_h;
+                let middle = halves.as_deref().map(Halves::middle);
+                per_half(join, middle, x, x_prev, v, w, |p| {
+                    for (((x, x_prev), v), &w) in
+                        p.x.iter().zip(&*p.x_prev).zip(p.v.iter_mut()).zip(p.w)
+                    {
+                        if w > 0.0 {
+                            let predicted = *x_prev + (*v * h + half_h2_a);
+                            *v += h_a + (*x - predicted) * inv_h;
+                        } else {
+                            *v = (*x - *x_prev) * inv_h;
+                        }
                     }
-                }
+                });
             }
 
             t.predict += laps.lap();
@@ -421,9 +467,79 @@ impl ClothSolver {
                 );
                 t.contacts += laps.lap();
             }
-            damp(settings, damping_k, x, v, w, &self.free_masses);
+            let middle = halves.as_deref().map(Halves::middle);
+            damp(
+                settings,
+                damping_k,
+                x,
+                v,
+                w,
+                &self.free_masses,
+                join,
+                middle,
+            );
             t.predict += laps.lap();
         }
         self.timings.add(&t);
     }
+}
+
+/// A run of particles: their positions, previous positions, velocities and inverse masses,
+/// from particle `first` on.
+struct Particles<'a> {
+    x: &'a mut [Vec3A],
+    x_prev: &'a mut [Vec3A],
+    v: &'a mut [Vec3A],
+    w: &'a [f32],
+    first: usize,
+}
+
+/// Runs `f` on every particle: on all of them at once, or with `middle` on the two halves
+/// split there, at the same time through `join`.
+fn per_half(
+    join: &dyn Join,
+    middle: Option<usize>,
+    x: &mut [Vec3A],
+    x_prev: &mut [Vec3A],
+    v: &mut [Vec3A],
+    w: &[f32],
+    f: impl Fn(Particles) + Sync,
+) {
+    let n = x.len();
+    let middle = middle.filter(|&m| m <= n && x_prev.len() == n && v.len() == n && w.len() == n);
+    let Some(m) = middle else {
+        f(Particles {
+            x,
+            x_prev,
+            v,
+            w,
+            first: 0,
+        });
+        return;
+    };
+    let (x0, x1) = x.split_at_mut(m);
+    let (p0, p1) = x_prev.split_at_mut(m);
+    let (v0, v1) = v.split_at_mut(m);
+    let (w0, w1) = w.split_at(m);
+    let f = &f;
+    join.join(
+        &mut || {
+            f(Particles {
+                x: &mut *x0,
+                x_prev: &mut *p0,
+                v: &mut *v0,
+                w: w0,
+                first: 0,
+            })
+        },
+        &mut || {
+            f(Particles {
+                x: &mut *x1,
+                x_prev: &mut *p1,
+                v: &mut *v1,
+                w: w1,
+                first: m,
+            })
+        },
+    );
 }
