@@ -3,7 +3,7 @@
 //! ```text
 //! cargo run --release --example scenes -- s1|s2|s3|drop --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
-//!     [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
+//!     [--shear-compliance inf] [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
@@ -99,6 +99,7 @@ fn run() -> Result<(), String> {
             "--substeps" => settings.substeps = parse(&value()?)?,
             "--iterations" => settings.iterations = parse(&value()?)?,
             "--stretch-compliance" => settings.stretch_compliance = parse(&value()?)?,
+            "--shear-compliance" => settings.shear_compliance = parse(&value()?)?,
             "--bend-compliance" => settings.bend_compliance = parse(&value()?)?,
             "--damping" => settings.damping = parse(&value()?)?,
             "--stiffness" => stiffness = parse(&value()?)?,

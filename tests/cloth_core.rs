@@ -686,3 +686,217 @@ fn a_rope_built_as_a_v_hangs_into_its_catenary_with_long_range_attachments_on() 
         );
     }
 }
+
+/// A small deterministic generator (a 64-bit LCG) in [0, 1), for meshes nobody designed.
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// Quad patterns of random size and cell shape, each quad cut along a random diagonal, their
+/// vertices shuffled (so no grid is recognised) and the whole turned at random: exactly the
+/// diagonals are shear edges. A mesh of equilateral triangles has none.
+#[test]
+fn the_diagonals_of_any_quad_pattern_are_its_shear_edges() {
+    let mut rng = Lcg(0x2545_f491_4f6c_dd1d);
+    for case in 0..4 {
+        let (nx, nz) = (
+            3 + (rng.next() * 5.0) as usize,
+            3 + (rng.next() * 5.0) as usize,
+        );
+        let (dx, dz) = (0.05 + 0.25 * rng.next(), 0.05 + 0.25 * rng.next());
+        let turn = bevy::math::Quat::from_euler(
+            bevy::math::EulerRot::XYZ,
+            rng.next() * 6.0,
+            rng.next() * 6.0,
+            rng.next() * 6.0,
+        );
+        // A random permutation of the vertices.
+        let mut order: Vec<usize> = (0..nx * nz).collect();
+        for i in (1..order.len()).rev() {
+            order.swap(i, (rng.next() * (i + 1) as f32) as usize % (i + 1));
+        }
+        let mut positions = vec![Vec3::ZERO; nx * nz];
+        for j in 0..nz {
+            for i in 0..nx {
+                positions[order[j * nx + i]] = turn * Vec3::new(i as f32 * dx, 0.0, j as f32 * dz);
+            }
+        }
+        let mut indices = Vec::new();
+        for j in 0..nz - 1 {
+            for i in 0..nx - 1 {
+                let [a, b, c, d] = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+                    .map(|(i, j)| order[j * nx + i] as u32);
+                if rng.next() < 0.5 {
+                    indices.extend([a, b, c, a, c, d]);
+                } else {
+                    indices.extend([a, b, d, b, c, d]);
+                }
+            }
+        }
+        let model = ClothModel::from_triangles(&positions, &indices, 0.2).unwrap();
+        assert_eq!(model.grid, None, "case {case}");
+        let diagonal = (dx * dx + dz * dz).sqrt();
+        let shear: Vec<_> = model
+            .edges
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Shear)
+            .collect();
+        assert_eq!(shear.len(), (nx - 1) * (nz - 1), "case {case}");
+        for edge in &model.edges {
+            let expected = if edge.kind == EdgeKind::Shear {
+                diagonal
+            } else if (edge.rest_length - dx).abs() < (edge.rest_length - dz).abs() {
+                dx
+            } else {
+                dz
+            };
+            assert!(
+                (edge.rest_length - expected).abs() < 1e-4,
+                "case {case}: a {:?} edge of {} m",
+                edge.kind,
+                edge.rest_length
+            );
+        }
+    }
+
+    // Equilateral triangles in strips.
+    let (rows, cols) = (4, 6);
+    let h = 3f32.sqrt() / 2.0;
+    let positions: Vec<Vec3> = (0..rows)
+        .flat_map(|j| {
+            (0..cols)
+                .map(move |i| Vec3::new(i as f32 + 0.5 * (j % 2) as f32, 0.0, j as f32 * h) * 0.1)
+        })
+        .collect();
+    let mut indices = Vec::new();
+    for j in 0..rows - 1 {
+        for i in 0..cols - 1 {
+            let v = |i: usize, j: usize| (j * cols + i) as u32;
+            if j % 2 == 0 {
+                indices.extend([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                indices.extend([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            } else {
+                indices.extend([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+                indices.extend([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            }
+        }
+    }
+    let model = ClothModel::from_triangles(&positions, &indices, 0.2).unwrap();
+    assert!(model.edges.iter().all(|e| e.kind == EdgeKind::Structural));
+}
+
+/// One square quad hanging in a vertical plane from its two top corners, its lower edge pushed
+/// sideways: with free shear it swings as a parallelogram, each lower corner a pendulum of the
+/// quad's side (period `2 pi sqrt(L / g)`); with a shear compliance `alpha` the diagonal is a
+/// spring of stiffness `1 / alpha` that shortens by `L theta / sqrt(2)`, so
+/// `omega^2 = g / L + 1 / (2 alpha (m_2 + m_3))`; with rigid shear it does not move. Random
+/// sizes, planes and compliances; bad compliances are refused.
+#[test]
+fn a_quad_shears_as_its_shear_compliance_says() {
+    let mut rng = Lcg(0x9e37_79b9_7f4a_7c15);
+    for case in 0..3 {
+        let side = 0.3 + 0.7 * rng.next();
+        let plane = bevy::math::Quat::from_rotation_y(rng.next() * 6.0);
+        let amplitude = 0.05f32;
+        let swung = Vec3::new(side * amplitude.sin(), -side * amplitude.cos(), 0.0);
+        let positions = [
+            Vec3::ZERO,
+            Vec3::new(side, 0.0, 0.0),
+            swung,
+            Vec3::new(side, 0.0, 0.0) + swung,
+        ];
+        let rest = [
+            Vec3::ZERO,
+            Vec3::new(side, 0.0, 0.0),
+            Vec3::new(0.0, -side, 0.0),
+            Vec3::new(side, -side, 0.0),
+        ];
+        let indices = [0, 2, 1, 1, 2, 3];
+        let model = ClothModel::from_triangles(&rest.map(|p| plane * p), &indices, 0.3).unwrap();
+        let shear = model.edges.iter().filter(|e| e.kind == EdgeKind::Shear);
+        assert_eq!(shear.count(), 1, "case {case}: the diagonal");
+        let mut sim = ClothSolver::new(model);
+        sim.set_pins(&[0, 1]).unwrap();
+        let w = &sim.state().inverse_masses;
+        let lower_mass = 1.0 / w[2] + 1.0 / w[3];
+        // Free, then a diagonal as stiff as gravity, then one three times as stiff.
+        let stiffness_ratio = [0.0, 1.0, 3.0][case];
+        let compliance = if stiffness_ratio == 0.0 {
+            f32::INFINITY
+        } else {
+            side / (2.0 * lower_mass * 9.81 * stiffness_ratio)
+        };
+        let settings = SolverSettings {
+            shear_compliance: compliance,
+            ..undamped(20, 2)
+        };
+        for (p, x) in sim.state_mut().positions.iter_mut().zip(positions) {
+            *p = (plane * x).into();
+        }
+        let (mut times, mut xs) = (Vec::new(), Vec::new());
+        let along = plane * Vec3::X;
+        for frame in 1..=60 * 6 {
+            sim.step(&settings, GRAVITY, DT).unwrap();
+            let x = &sim.state().positions;
+            times.push(frame as f32 * DT);
+            xs.push(Vec3::from(x[2]).dot(along));
+            let tilt = (x[2].y - x[3].y).abs();
+            assert!(
+                tilt < 1e-3 * side,
+                "case {case}: the lower edge tilts {tilt}"
+            );
+        }
+        let period = mean_period(&upward_crossings(&times, &xs));
+        let omega2 = 9.81 / side
+            + if compliance.is_finite() {
+                1.0 / (2.0 * compliance * lower_mass)
+            } else {
+                0.0
+            };
+        let theory = 2.0 * PI / omega2.sqrt() * (1.0 + amplitude * amplitude / 16.0);
+        println!("case {case}: period {period} s, theory {theory} s");
+        assert!(
+            (period - theory).abs() / theory < 0.01,
+            "case {case}: period {period} s, theory {theory} s"
+        );
+
+        // Rigid shear: back to the square at once, and there it stays.
+        let mut sim = ClothSolver::new(
+            ClothModel::from_triangles(&rest.map(|p| plane * p), &indices, 0.3).unwrap(),
+        );
+        sim.set_pins(&[0, 1]).unwrap();
+        for (p, x) in sim.state_mut().positions.iter_mut().zip(positions) {
+            *p = (plane * x).into();
+        }
+        for _ in 0..60 {
+            sim.step(&undamped(20, 2), GRAVITY, DT).unwrap();
+        }
+        let off = Vec3::from(sim.state().positions[2]).distance(plane * rest[2]);
+        assert!(off < 1e-3 * side, "case {case}: rigid shear moved {off} m");
+    }
+
+    let mut sim =
+        ClothSolver::new(ClothModel::grid(&GridDesc::square(1.0, 3, Vec3::ZERO), 0.1).unwrap());
+    for bad in [f32::NAN, -1.0] {
+        let settings = SolverSettings {
+            shear_compliance: bad,
+            ..Default::default()
+        };
+        assert!(matches!(
+            sim.step(&settings, GRAVITY, DT),
+            Err(ClothError::InvalidSetting {
+                name: "shear_compliance",
+                ..
+            })
+        ));
+    }
+    assert!(sim.is_finite());
+}

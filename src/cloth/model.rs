@@ -23,7 +23,8 @@ use crate::error::{ClothError, ClothWarning};
 pub enum EdgeKind {
     /// A warp or weft thread: a grid edge, or any edge of a general triangle mesh.
     Structural,
-    /// A diagonal of a grid quad.
+    /// A diagonal of a quad: of a grid, or an interior edge opposite a right angle in both
+    /// of its triangles (a quad pattern cut into triangles, as a modelling tool exports it).
     Shear,
 }
 
@@ -340,6 +341,11 @@ impl ClothModel {
                         particles,
                         rest_angle,
                     });
+                    if is_quad_diagonal(x)
+                        && let Some(edge) = edges.last_mut()
+                    {
+                        edge.kind = EdgeKind::Shear;
+                    }
                 }
                 n => warnings.push(ClothWarning::NonManifoldEdge { a, b, triangles: n }),
             }
@@ -450,4 +456,18 @@ impl ClothModel {
         self.density = density;
         Ok(())
     }
+}
+
+/// How far from a right angle (its cosine) the corners facing a quad's diagonal may be: about
+/// 1.1 degrees.
+const RIGHT_ANGLE_COSINE: f32 = 0.02;
+
+/// Whether the edge `x[0]`-`x[1]`, shared by the triangles with third corners `x[2]` and
+/// `x[3]`, is the diagonal of a quad: both corners facing it are right angles.
+fn is_quad_diagonal(x: [Vec3; 4]) -> bool {
+    x[2..].iter().all(|&o| {
+        let (u, v) = (x[0] - o, x[1] - o);
+        let lengths = u.length() * v.length();
+        lengths > 0.0 && (u.dot(v) / lengths).abs() < RIGHT_ANGLE_COSINE
+    })
 }

@@ -110,6 +110,16 @@ pub struct SolverSettings {
     pub iterations: u32,
     /// Compliance of the edge (stretch) constraints, m/N. Default: `0.0` (inextensible).
     pub stretch_compliance: f32,
+    /// Compliance of the shear constraints, m/N: the diagonals of a quad pattern
+    /// ([`EdgeKind::Shear`](crate::cloth::EdgeKind::Shear)), which a woven cloth barely
+    /// resists (it shears along its bias), while `stretch_compliance` holds its threads.
+    /// `0.0` makes them as stiff as the threads; `f32::INFINITY` leaves them out, so the
+    /// cloth shears freely and only its bending resists. A soft shear lets a cloth lie on a
+    /// curved body without stretching its threads. XPBD without a volume constraint (other
+    /// methods and a closed cloth project the diagonals with the threads). Default: `0.0`
+    /// (also when a settings file leaves it out).
+    #[reflect(default)]
+    pub shear_compliance: f32,
     /// Compliance of the dihedral bending constraints, 1/(N m). Default: `500.0`.
     pub bend_compliance: f32,
     /// Damping rate, 1/s: the damped part of the velocity decays as `exp(-damping t)`.
@@ -248,6 +258,7 @@ impl Default for SolverSettings {
             substeps: 8,
             iterations: 2,
             stretch_compliance: 0.0,
+            shear_compliance: 0.0,
             bend_compliance: 500.0,
             damping: 0.5,
             damping_mode: DampingMode::Rigid,
@@ -277,9 +288,16 @@ impl SolverSettings {
         }
     }
 
+    /// Whether the shear constraints are projected apart from the threads, with
+    /// [`SolverSettings::shear_compliance`] (XPBD without a volume constraint, a compliance
+    /// above zero).
+    pub(crate) fn projects_shear_apart(&self) -> bool {
+        self.method == SolverMethod::Xpbd && self.volume.is_none() && self.shear_compliance > 0.0
+    }
+
     /// Checks every field's range.
     pub fn validate(&self) -> Result<(), ClothError> {
-        let checks: [(&'static str, f32, bool, &'static str); 8] = [
+        let checks: [(&'static str, f32, bool, &'static str); 9] = [
             (
                 "substeps",
                 self.substeps as f32,
@@ -297,6 +315,12 @@ impl SolverSettings {
                 self.stretch_compliance,
                 self.stretch_compliance.is_finite() && self.stretch_compliance >= 0.0,
                 "finite and >= 0",
+            ),
+            (
+                "shear_compliance",
+                self.shear_compliance,
+                self.shear_compliance >= 0.0,
+                ">= 0 (infinite: no shear constraint)",
             ),
             (
                 "bend_compliance",

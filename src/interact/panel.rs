@@ -301,6 +301,23 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
         }
         SolverMethod::MassSpring => {}
     }
+    if solver.method == SolverMethod::Xpbd {
+        // Free shear: no shear constraint at all (an infinite compliance).
+        let mut free = solver.shear_compliance.is_infinite();
+        ui.checkbox(&mut free, "free shear");
+        if free {
+            solver.shear_compliance = f32::INFINITY;
+        } else {
+            if solver.shear_compliance.is_infinite() {
+                solver.shear_compliance = 0.0;
+            }
+            ui.add(
+                egui::Slider::new(&mut solver.shear_compliance, 0.0..=1.0)
+                    .logarithmic(true)
+                    .text("shear compliance, m/N"),
+            );
+        }
+    }
     match solver.method {
         SolverMethod::Xpbd | SolverMethod::Pbd { .. } => {
             ui.add(

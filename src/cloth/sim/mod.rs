@@ -9,7 +9,7 @@ use super::batch::PairBatches;
 use super::constraints::Tether;
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::SpringSet;
-use super::model::{BendingPair, ClothModel, EdgeKind};
+use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::rest_paths::RestPaths;
 use super::rims::{Rim, find_rims};
@@ -85,10 +85,18 @@ pub struct ClothSolver {
     limit_batches: PairBatches,
     /// Multipliers of the order-free (Jacobi) edge projection, one per edge.
     edge_lambdas: Vec<f32>,
-    /// The model's edges in batches of four, in their sorted order.
+    /// The model's edges in batches of four, in their sorted order (the structural ones only
+    /// while `shear_apart`).
     edge_batches: PairBatches,
     /// Multipliers of `edge_batches`, one lane per edge.
     edge_batch_lambdas: Vec<Vec4>,
+    /// Whether the shear edges are left out of `edge_batches` and projected from
+    /// `shear_batches` with their own compliance ([`SolverSettings::shear_compliance`]).
+    shear_apart: bool,
+    /// The model's shear edges in batches of four.
+    shear_batches: PairBatches,
+    /// Multipliers of `shear_batches`, one lane per edge.
+    shear_batch_lambdas: Vec<Vec4>,
     isometric_pairs: Vec<IsometricPair>,
     /// The isometric pairs' factors for `weights_seen` and `bend_alpha_prepared`.
     isometric_prepared: PreparedIsometric,
@@ -165,8 +173,13 @@ impl ClothSolver {
             n,
             true,
         );
-        let edge_batches = PairBatches::new(
-            model.edges.iter().map(|e| (e.particles, e.rest_length)),
+        let edge_batches = edge_batches(&model.edges, n, false);
+        let shear_batches = PairBatches::new(
+            model
+                .edges
+                .iter()
+                .filter(|e| e.kind == EdgeKind::Shear)
+                .map(|e| (e.particles, e.rest_length)),
             n,
             true,
         );
@@ -195,6 +208,9 @@ impl ClothSolver {
             edge_lambdas: vec![0.0; model.edges.len()],
             edge_batch_lambdas: vec![Vec4::ZERO; edge_batches.len()],
             edge_batches,
+            shear_apart: false,
+            shear_batch_lambdas: vec![Vec4::ZERO; shear_batches.len()],
+            shear_batches,
             tether_batches: PairBatches::default(),
             tether_pins: Vec::new(),
             tether_anchors: Vec::new(),
@@ -683,6 +699,7 @@ impl ClothSolver {
             self.volume = Some(VolumeConstraint::new(&self.model));
         }
         self.sync_weights();
+        self.sync_shear(settings);
         let carried = self.carried.take();
         self.timings = StepTimings::default();
         let mut laps = Laps::start();
@@ -745,7 +762,7 @@ impl ClothSolver {
             settings.method,
             SolverMethod::Xpbd | SolverMethod::Pbd { .. }
         );
-        if !method || settings.volume.is_some() {
+        if !method || settings.volume.is_some() || settings.projects_shear_apart() {
             return false;
         }
         let halves = self.halves.get_or_insert_with(|| {
@@ -769,6 +786,7 @@ impl ClothSolver {
         if !seen.iter().copied().eq(w.iter().map(|m| m.to_bits())) {
             self.halves = None;
             self.edge_batches.set_weights(w);
+            self.shear_batches.set_weights(w);
             self.limit_batches.set_weights(w);
             self.tether_batches.set_weights(w);
             seen.clear();
@@ -777,6 +795,19 @@ impl ClothSolver {
             self.free_masses
                 .extend(w.iter().map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 }));
             self.bend_alpha_prepared = f32::NAN.to_bits();
+        }
+    }
+
+    /// Batches the edges again if `settings` projects the shear edges apart and the batches
+    /// were made otherwise, or the other way round.
+    fn sync_shear(&mut self, settings: &SolverSettings) {
+        let apart = settings.projects_shear_apart();
+        if apart != self.shear_apart {
+            self.shear_apart = apart;
+            self.edge_batches = edge_batches(&self.model.edges, self.model.particle_count(), apart);
+            self.edge_batches.set_weights(&self.state.inverse_masses);
+            self.edge_batch_lambdas = vec![Vec4::ZERO; self.edge_batches.len()];
+            self.halves = None;
         }
     }
 
@@ -870,4 +901,17 @@ impl ClothSolver {
     pub fn self_contact_count(&self) -> usize {
         self.self_contacts
     }
+}
+
+/// The edges of a cloth of `n` particles in batches of four, in their sorted order; without
+/// the shear edges if `without_shear`.
+fn edge_batches(edges: &[Edge], n: usize, without_shear: bool) -> PairBatches {
+    PairBatches::new(
+        edges
+            .iter()
+            .filter(|e| !without_shear || e.kind != EdgeKind::Shear)
+            .map(|e| (e.particles, e.rest_length)),
+        n,
+        true,
+    )
 }

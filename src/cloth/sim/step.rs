@@ -147,6 +147,10 @@ impl ClothSolver {
             self.bend_alpha_prepared = alpha_tilde.to_bits();
         }
         let long_range = settings.projects_long_range();
+        // The diagonals with their own compliance; none at all if it is infinite.
+        let shear = Some(settings.shear_compliance / (h * h))
+            .filter(|alpha_tilde| alpha_tilde.is_finite())
+            .map(|alpha_tilde| Projection::Xpbd { alpha_tilde });
         // Two halves at once (`halves.rs`).
         let splits = join.is_parallel() && self.splits_in_two(settings);
         let mut halves = self
@@ -304,6 +308,9 @@ impl ClothSolver {
                 }
                 None => {}
             }
+            if self.shear_apart {
+                self.shear_batch_lambdas.fill(Vec4::ZERO);
+            }
             if projections.bend.is_some() {
                 let dihedral = if projections.isometric.is_some() {
                     self.curved_pairs.len()
@@ -349,6 +356,13 @@ impl ClothSolver {
                             x,
                             batch_stretch,
                         );
+                        if let Some(shear) = shear.filter(|_| self.shear_apart) {
+                            self.shear_batches.project_distances(
+                                &mut self.shear_batch_lambdas,
+                                x,
+                                shear,
+                            );
+                        }
                         if !colliders.is_empty() {
                             project_held_edges(&self.model.edges, x, w, self.contacts.held());
                         }

@@ -74,6 +74,8 @@ struct S3Line {
     self_collision: bool,
     substeps: u32,
     iterations: u32,
+    /// `null` when infinite (free shear).
+    shear_compliance: f32,
     frames: u32,
     ms_per_frame: f64,
     ms_animation: f64,
@@ -124,6 +126,7 @@ impl PonchoRun {
             self_collision: solver.self_collision,
             substeps: solver.substeps,
             iterations: solver.iterations,
+            shear_compliance: solver.shear_compliance,
             frames: self.steps,
             ms_per_frame: self.median_ms(4),
             ms_animation: self.median_ms(0),
