@@ -753,7 +753,8 @@ impl ClothSolver {
     }
 
     /// Whether [`ClothSolver::step_with`] splits this cloth over two threads with `settings`:
-    /// XPBD or PBD without a volume constraint, at least 2048 particles numbered so that the
+    /// XPBD or PBD without a volume constraint or a soft shear
+    /// ([`SolverSettings::shear_compliance`]), at least 2048 particles numbered so that the
     /// middle index cuts the cloth along a short seam (at most a tenth of its constraints
     /// across it). Makes the split the first time it is asked (and again after the pins or
     /// the masses change).
