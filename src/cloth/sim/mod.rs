@@ -173,16 +173,8 @@ impl ClothSolver {
             n,
             true,
         );
-        let edge_batches = edge_batches(&model.edges, n, false);
-        let shear_batches = PairBatches::new(
-            model
-                .edges
-                .iter()
-                .filter(|e| e.kind == EdgeKind::Shear)
-                .map(|e| (e.particles, e.rest_length)),
-            n,
-            true,
-        );
+        let shear_batches = edge_batches(&model.edges, n, |kind| kind == EdgeKind::Shear);
+        let edge_batches = edge_batches(&model.edges, n, |_| true);
         // Edges and limits keep their sorted order, batched four at a time with each constraint
         // a few places from where it was ([`PairBatches`]): a lexicographic Gauss-Seidel sweep
         // carries a correction across the whole sheet in its direction, which a colour order
@@ -805,7 +797,10 @@ impl ClothSolver {
         let apart = settings.projects_shear_apart();
         if apart != self.shear_apart {
             self.shear_apart = apart;
-            self.edge_batches = edge_batches(&self.model.edges, self.model.particle_count(), apart);
+            let n = self.model.particle_count();
+            self.edge_batches = edge_batches(&self.model.edges, n, |kind| {
+                !apart || kind == EdgeKind::Structural
+            });
             self.edge_batches.set_weights(&self.state.inverse_masses);
             self.edge_batch_lambdas = vec![Vec4::ZERO; self.edge_batches.len()];
             self.halves = None;
@@ -904,13 +899,13 @@ impl ClothSolver {
     }
 }
 
-/// The edges of a cloth of `n` particles in batches of four, in their sorted order; without
-/// the shear edges if `without_shear`.
-fn edge_batches(edges: &[Edge], n: usize, without_shear: bool) -> PairBatches {
+/// The edges of a cloth of `n` particles whose kind `keep` accepts, in batches of four, in
+/// their sorted order.
+fn edge_batches(edges: &[Edge], n: usize, keep: impl Fn(EdgeKind) -> bool) -> PairBatches {
     PairBatches::new(
         edges
             .iter()
-            .filter(|e| !without_shear || e.kind != EdgeKind::Shear)
+            .filter(|e| keep(e.kind))
             .map(|e| (e.particles, e.rest_length)),
         n,
         true,

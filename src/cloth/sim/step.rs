@@ -47,6 +47,9 @@ use crate::cloth::state::ClothState;
 struct Projections {
     /// The edges' distance projection (none for mass-spring, whose edges are springs).
     stretch: Option<Projection>,
+    /// The shear edges' projection when they are projected apart
+    /// ([`SolverSettings::projects_shear_apart`]) and their compliance is finite.
+    shear: Option<Projection>,
     /// The dihedral bending projection (XPBD and PBD; the spring methods bend with springs).
     bend: Option<Projection>,
     /// The time-step-scaled compliance of the isometric bending pairs, if they are used.
@@ -84,8 +87,12 @@ impl Projections {
             // Plain PBD has no compliance to calibrate: it keeps the dihedral form.
             _ => None,
         };
+        let shear = Some(xpbd(settings.shear_compliance))
+            .filter(|_| settings.projects_shear_apart())
+            .filter(|p| matches!(p, Projection::Xpbd { alpha_tilde } if alpha_tilde.is_finite()));
         Self {
             stretch,
+            shear,
             bend,
             isometric,
             volume_alpha,
@@ -147,10 +154,6 @@ impl ClothSolver {
             self.bend_alpha_prepared = alpha_tilde.to_bits();
         }
         let long_range = settings.projects_long_range();
-        // The diagonals with their own compliance; none at all if it is infinite.
-        let shear = Some(settings.shear_compliance / (h * h))
-            .filter(|alpha_tilde| alpha_tilde.is_finite())
-            .map(|alpha_tilde| Projection::Xpbd { alpha_tilde });
         // Two halves at once (`halves.rs`).
         let splits = join.is_parallel() && self.splits_in_two(settings);
         let mut halves = self
@@ -356,7 +359,7 @@ impl ClothSolver {
                             x,
                             batch_stretch,
                         );
-                        if let Some(shear) = shear.filter(|_| self.shear_apart) {
+                        if let Some(shear) = projections.shear.filter(|_| self.shear_apart) {
                             self.shear_batches.project_distances(
                                 &mut self.shear_batch_lambdas,
                                 x,
