@@ -6,27 +6,45 @@
 //!
 //! 1. **Position.** A free particle closer to a collider's surface than `reach = margin +
 //!    thickness` (or inside it) is moved out along the surface normal `n` to `reach`, by
-//!    `depth`. XPBD, PBD and the hybrid repeat this inside their iterations (an inequality
-//!    constraint); mass-spring does it once at the end of the substep. The first time a
-//!    particle touches a collider in the substep, its pre-contact normal velocity relative to
-//!    the surface is recorded: `approach = n . (v + h a - v_surface)` with `v` the velocity
-//!    at the start of the substep (XPBD, `h a` the external acceleration's share) or after
-//!    the explicit update (mass-spring, no `h a`); `v_surface = v_lin + omega x r`.
+//!    `depth`. XPBD, PBD and the hybrid do this at the start of each of their iterations,
+//!    before the cloth's own constraints (an inequality constraint), and once more after
+//!    the last iteration with `reach = 0` (the closing pass: nothing is left inside a
+//!    collider, and no friction); mass-spring does it once at the end of the substep. The
+//!    first time a particle touches a collider in the substep, its pre-contact normal
+//!    velocity relative to the surface is recorded: `approach = n . (v + h a - v_surface)`
+//!    with `v` the velocity at the start of the substep (XPBD, `h a` the external
+//!    acceleration's share) or after the explicit update (mass-spring, no `h a`);
+//!    `v_surface = v_lin + omega x r`.
 //! 2. **Friction** (the methods whose velocities come from positions: XPBD, PBD, hybrid), in
 //!    the same projection, as a position constraint (Macklin et al. 2014, "Unified particle
 //!    physics for real-time applications"): the particle's displacement relative to the
-//!    surface since the substep began (`s = x - x_prev - h v_surface`, its tangential part
-//!    `s_t`) is undone entirely if
+//!    surface (`s = x - r`, its tangential part `s_t`) is undone entirely if
 //!    `|s_t| <= mu d` (static friction), else shortened by `mu d` (kinetic). `d` is the normal
 //!    motion the contact removed in this projection: `depth`, plus, the first time in the
 //!    substep, the share of the external acceleration the prediction left out
 //!    (`h^2 / 2 max(0, -n . a)`: velocity Verlet moves by `h^2 a / 2` while the velocity
-//!    changes by `h a`). Each iteration thus compares the tangential pull of that iteration
-//!    with the normal push of that iteration, which is Coulomb's law whatever the iteration
-//!    count; the edges projected in the next iteration see where friction left the particle.
-//!    (An earlier velocity-level friction applied after all iterations moved held particles
-//!    back along the surface after the edges had corrected them, every substep: measured on a
-//!    strip hanging over a bar, 2.95% strain at 8 x 2 and at 8 x 8 alike.)
+//!    changes by `h a`). The reference `r` is the particle's **anchor** on this collider:
+//!    the point where friction last left it (held there, or where it slid to), carried by the
+//!    surface velocity (`r += h v_surface` once per substep) and by a followed frame; a
+//!    particle without one (first touch) measures from the start of the substep,
+//!    `r = x_prev + h v_surface`. Each iteration thus compares the tangential pull of that
+//!    iteration with the normal push of that iteration, which is Coulomb's law whatever the
+//!    iteration count.
+//!
+//!    Why this order: the cloth's constraints come after the colliders in every iteration, so
+//!    an iteration ends with the edges met. When the colliders came last (the earlier order),
+//!    each push out of a collider and each friction correction undid part of what the edges
+//!    had just done, and the two settled with the edges stretched: a strip over a bar, its
+//!    particles held by friction, kept a stretch that friction itself preserved (a fixed
+//!    point: edges shorten the strip, friction puts the particles back, every iteration),
+//!    and a larger budget made S3 worse. Now the last iteration's edges can slide a held
+//!    particle a little; the anchor keeps that slide from adding up (the next projection
+//!    measures from the anchor, not from where the edges left the particle), and the velocity
+//!    of a held particle comes from its anchor (step 3), so it does not carry the slide on.
+//!    Measured on S3 (`cargo run --release --example scenes -- s3 --motion M`, default
+//!    8 x 2, one run): the median step's largest strain 2.8-3.1% to 1.5-1.7%, the 99.9th
+//!    percentile edge 3.2-3.9% to 1.6-1.9%, the worst step 12-19% to 4.2-5.2%; at 16 x 4
+//!    0.2-0.3%, 0.3-1.0% and 1.1-11%.
 //! 3. **Velocity**, after the solver's own velocity update, in the collider's frame
 //!    (`u = v - v_surface`, split into `u_n = n . u` and `u_t`):
 //!    - `u_n' = -epsilon approach` if the particle approached faster than `2 |a| h`, else 0
@@ -35,7 +53,9 @@
 //!      in Mueller et al. 2020: keeping a separating particle's pre-contact velocity instead
 //!      feeds energy into a cloth pressed onto a curved collider);
 //!    - XPBD, PBD, hybrid: `v = v_surface + n u_n' + u_t` (the tangential velocity, derived
-//!      from the positions, already has the friction);
+//!      from the positions, already has the friction); for a particle static friction held
+//!      in its last projection, `u_t` is that of `(r - x_prev) / h + h a / 2 - v_surface`
+//!      with its anchor `r`: it moves as the surface it sticks to;
 //!    - mass-spring, whose velocities are its own: with the normal velocity change the
 //!      contact made, `dv_n = u_n' - u_n`, the tangential velocity loses at most `mu dv_n`
 //!      (it stops if `|u_t| <= mu dv_n`, else shrinks by `mu dv_n`), and the tangential
@@ -76,6 +96,42 @@ impl Contact {
     }
 }
 
+/// Which pass over the colliders a projection is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum ContactPass {
+    /// A solver iteration's: a particle closer than `margin + thickness` to a collider's
+    /// surface moves out to that distance, with friction on the positions when
+    /// `friction_step` holds the substep's length.
+    Iteration {
+        /// The substep's length, if friction acts on the positions.
+        friction_step: Option<f32>,
+    },
+    /// The closing pass after the last iteration: a particle inside a collider moves out onto
+    /// its surface, without friction.
+    Closing,
+}
+
+/// Where static friction holds a particle: a point that moves with its collider's surface
+/// (world, advanced by the surface velocity every substep), and the collider.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Anchor {
+    /// The collider's index, or `u32::MAX` for none.
+    collider: u32,
+    /// The point the particle sticks to.
+    point: Vec3A,
+    /// Whether the particle's latest friction projection held it there (static), rather than
+    /// letting it slide (kinetic: the point is then where it slid to).
+    holding: bool,
+}
+
+impl Anchor {
+    const NONE: Self = Self {
+        collider: NONE,
+        point: Vec3A::ZERO,
+        holding: false,
+    };
+}
+
 /// Per-particle contacts and per-collider poses and bounds, reused every step.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ContactScratch {
@@ -83,6 +139,8 @@ pub(crate) struct ContactScratch {
     /// Per particle, the normal of its latest contact (this substep's or the last one's),
     /// zero if it had none.
     held: Vec<Vec3A>,
+    /// Per particle, where static friction holds it (see [`Anchor`]).
+    anchors: Vec<Anchor>,
     /// The colliders' poses at the start and the end of the current substep.
     start_poses: Vec<RigidPose>,
     poses: Vec<RigidPose>,
@@ -107,6 +165,7 @@ impl ContactScratch {
     ) {
         self.contacts.resize(particles, Contact::EMPTY);
         self.held.resize(particles, Vec3A::ZERO);
+        self.anchors.resize(particles, Anchor::NONE);
         self.bounds.clear();
         self.bounds.extend(
             colliders
@@ -140,8 +199,16 @@ impl ContactScratch {
             *start = c.pose_at(t_start);
             *end = c.pose_at(t_end);
         }
-        for (held, c) in self.held.iter_mut().zip(&self.contacts) {
+        for ((held, anchor), c) in self
+            .held
+            .iter_mut()
+            .zip(&mut self.anchors)
+            .zip(&self.contacts)
+        {
             *held = c.normal;
+            if anchor.collider != c.collider {
+                *anchor = Anchor::NONE;
+            }
         }
         self.contacts.fill(Contact::EMPTY);
         let (mut cloth, mut travel) = (Aabb::EMPTY, 0.0f32);
@@ -186,15 +253,22 @@ impl ContactScratch {
         w: &[f32],
         h_a: Vec3A,
         thickness: f32,
-        friction_step: Option<f32>,
+        pass: ContactPass,
     ) {
+        let friction_step = match pass {
+            ContactPass::Iteration { friction_step } => friction_step,
+            ContactPass::Closing => None,
+        };
         for &k in &self.near {
             let k = k as usize;
             let collider = &colliders[k];
             let pose = self.poses[k];
             let start_pose = self.start_poses[k];
             let bounds = self.bounds[k];
-            let reach = collider.margin + thickness;
+            let reach = match pass {
+                ContactPass::Iteration { .. } => collider.margin + thickness,
+                ContactPass::Closing => 0.0,
+            };
             let swept = matches!(collider.shape, super::SolverShape::TriangleMesh(_));
             for i in 0..x.len() {
                 if w[i] <= 0.0 || bounds.is_some_and(|b| !b.contains(x[i])) {
@@ -227,25 +301,44 @@ impl ContactScratch {
                         surface_velocity,
                     };
                     // The share of the external acceleration the prediction left out
-                    // (velocity Verlet moves by h^2/2 a, the velocity changes by h a).
+                    // (velocity Verlet moves by h^2/2 a, the velocity changes by h a); an
+                    // anchor on this collider moves with its surface over the substep.
                     if let Some(h) = friction_step {
                         normal_motion += (-0.5 * h * n.dot(h_a)).max(0.0);
+                        let anchor = &mut self.anchors[i];
+                        if anchor.collider == k as u32 {
+                            anchor.point += surface_velocity * h;
+                        }
                     }
                 }
                 contact.normal = n;
                 self.held[i] = n;
                 if let Some(h) = friction_step {
-                    // Friction on the displacement relative to the surface since the substep
-                    // began.
-                    let slip = x[i] - x_prev[i] - contact.surface_velocity * h;
+                    // Friction on the displacement relative to the surface since static
+                    // friction last held the particle (its anchor on this collider), or
+                    // since the substep began.
+                    let anchor = &mut self.anchors[i];
+                    let anchored = anchor.collider == k as u32;
+                    let reference = if anchored {
+                        anchor.point
+                    } else {
+                        x_prev[i] + contact.surface_velocity * h
+                    };
+                    let slip = x[i] - reference;
                     let slip_t = slip - n * n.dot(slip);
                     let length = slip_t.length();
                     let budget = collider.material.friction * normal_motion;
-                    x[i] -= if length <= budget {
+                    let holding = length <= budget;
+                    x[i] -= if holding {
                         slip_t
                     } else {
                         slip_t * (budget / length)
                     };
+                    if !(anchored && holding) {
+                        anchor.collider = k as u32;
+                        anchor.point = x[i];
+                    }
+                    anchor.holding = holding;
                     // Along a triangle mesh's surface the slide can end inside another of its
                     // faces: that one pushes it out again, without friction.
                     if swept
@@ -275,6 +368,7 @@ impl ContactScratch {
         x_prev: &[Vec3A],
         v: &mut [Vec3A],
         h: f32,
+        h_a: Vec3A,
         bounce_threshold: f32,
         friction_in_positions: bool,
     ) {
@@ -294,7 +388,16 @@ impl ContactScratch {
             };
             if friction_in_positions {
                 // The projection applied friction to the positions, so the tangential
-                // velocity derived from them already has it.
+                // velocity derived from them already has it; but a particle static friction
+                // holds moves as its anchor does (`x - x_prev` with the anchor for `x`), not
+                // by what the cloth's constraints slid it after the colliders' pass.
+                let anchor = self.anchors[i];
+                let ut = if anchor.holding && anchor.collider == c.collider {
+                    let u = (anchor.point - x_prev[i]) / h + 0.5 * h_a - c.surface_velocity;
+                    u - n * n.dot(u)
+                } else {
+                    ut
+                };
                 v[i] = c.surface_velocity + n * un_new + ut;
                 continue;
             }
@@ -315,6 +418,20 @@ impl ContactScratch {
     /// Per particle, the normal of its latest contact, zero if none.
     pub(crate) fn held(&self) -> &[Vec3A] {
         &self.held
+    }
+
+    /// Moves the friction anchors with the cloth when it is carried (a followed frame).
+    pub(crate) fn carry_anchors(&mut self, map: impl Fn(Vec3A) -> Vec3A) {
+        for anchor in self.anchors.iter_mut().filter(|a| a.collider != NONE) {
+            anchor.point = map(anchor.point);
+        }
+    }
+
+    /// Forgets every contact, held normal and anchor (a reset cloth, or colliders renumbered).
+    pub(crate) fn forget(&mut self) {
+        self.contacts.fill(Contact::EMPTY);
+        self.held.fill(Vec3A::ZERO);
+        self.anchors.fill(Anchor::NONE);
     }
 
     /// How many particles touched a collider in the last substep.

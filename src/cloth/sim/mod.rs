@@ -337,6 +337,7 @@ impl ClothSolver {
     /// material, a non-finite pose or velocity) is left out, and the first such error is
     /// returned; the valid ones are kept either way.
     pub fn set_colliders(&mut self, colliders: &[SolverCollider]) -> Result<(), ColliderError> {
+        let count = self.colliders.len();
         self.colliders.clear();
         let mut first_error = None;
         for collider in colliders {
@@ -346,6 +347,10 @@ impl ClothSolver {
                     first_error.get_or_insert(e);
                 }
             }
+        }
+        if self.colliders.len() != count || first_error.is_some() {
+            // The contacts name colliders by index.
+            self.contacts.forget();
         }
         first_error.map_or(Ok(()), Err)
     }
@@ -388,6 +393,7 @@ impl ClothSolver {
             for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
                 pin.start = map.point(pin.start);
             }
+            self.contacts.carry_anchors(|p| map.point(p));
         }
         for c in &mut self.colliders {
             if !frame.jumped {
@@ -525,6 +531,7 @@ impl ClothSolver {
     /// grabbed.
     pub fn reset(&mut self) {
         self.state = ClothState::at_rest(&self.model);
+        self.contacts.forget();
         self.adaptive_substeps = 0;
         self.adaptive_calm = 0;
         if self.drag.take().is_some() {

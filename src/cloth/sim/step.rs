@@ -6,23 +6,26 @@
 //!    the spring forces `f` at the substep's start, `v += h (a + f / m)`, `x += h v`
 //!    (symplectic Euler; the hybrid's springs are the shear and bend ones only). Pins move to
 //!    their interpolated targets.
-//! 2. project, `iterations` times (once for mass-spring), in this order: the long-range
-//!    constraints (stretch limits and tethers: XPBD and PBD if on, the hybrid only if its
-//!    method asks for them, never mass-spring), edges (XPBD and PBD all of them, batched,
-//!    then once more the structural edges of particles a collider holds, each held particle
-//!    moving along its surface only (`passes.rs`); or Jacobi for a closed cloth; the hybrid
-//!    its structural edges; mass-spring none: its edges are springs), the rim limits of the
-//!    cloth's holes (with the long-range constraints, `rims.rs`), volume, bending pairs
-//!    (XPBD and PBD, their multipliers accumulated over the substep's iterations),
-//!    self-collision, colliders (planes included) with friction on the positions for all but
-//!    mass-spring (`collide/contact.rs`). Bending in every iteration rather than the first
-//!    alone costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
-//!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration
-//!    alone at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
-//!    budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%, 0.43%, 0.50%). Bending
-//!    in the last iteration alone costs what the first did and holds S1 as well, but leaves
-//!    S2 at N = 64 stretched 75% (bending after the edges pushes the sheet into the sphere
-//!    every substep).
+//! 2. project, `iterations` times (once for mass-spring), in this order: colliders (planes
+//!    included) with friction on the positions and then self-collision, first in every
+//!    iteration for all but mass-spring (`collide/contact.rs`: the constraints after them carry
+//!    each push on within the iteration, and an iteration ends with the edges met); the
+//!    long-range constraints (stretch limits and tethers: XPBD and PBD if on, the hybrid only
+//!    if its method asks for them, never mass-spring), edges (XPBD and PBD all of them,
+//!    batched, then once more the structural edges of particles a collider holds, each held
+//!    particle moving along its surface only (`passes.rs`); or Jacobi for a closed cloth; the
+//!    hybrid its structural edges; mass-spring none: its edges are springs), the rim limits of
+//!    the cloth's holes (with the long-range constraints, `rims.rs`), volume, bending pairs
+//!    (XPBD and PBD, their multipliers accumulated over the substep's iterations); for
+//!    mass-spring, self-collision and the colliders last. After the last iteration, the closing
+//!    collider pass moves anything left inside a collider onto its surface. Bending in every
+//!    iteration rather than the first alone costs 28% more per frame on S1 at N = 64, 8 x 2
+//!    (1.38 to 1.77 ms), and holds it tighter at equal cost (0.74% max strain, against 0.82%
+//!    for the first iteration alone at 10 x 2, 1.92 ms); the first alone also left a floor of
+//!    0.6 to 0.8% whatever the budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%,
+//!    0.43%, 0.50%). Bending in the last iteration alone costs what the first did and holds S1
+//!    as well, but leaves S2 at N = 64 stretched 75% (bending after the edges pushes the sheet
+//!    into the sphere every substep).
 //! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
 //!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
 //!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its self-collision and
@@ -42,6 +45,9 @@ use crate::cloth::mass_spring::auto_substeps;
 use crate::cloth::rims::project_rim;
 use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
+use crate::collide::SolverCollider;
+use crate::collide::contact::{ContactPass, ContactScratch};
+use crate::collide::thin::ThinFeatureContacts;
 
 /// What a solver method projects, per substep of length `h`.
 struct Projections {
@@ -202,7 +208,13 @@ impl ClothSolver {
             dt,
             settings.thickness,
         );
-        let thin_contacts = self.thin_contacts.has_candidates();
+        let collider_pass = ColliderPass {
+            colliders,
+            triangles: &self.model.triangles,
+            h_a: contact_push,
+            thickness: settings.thickness,
+            thin: self.thin_contacts.has_candidates(),
+        };
         let mut t = StepTimings {
             contacts: laps.lap(),
             ..StepTimings::default()
@@ -329,6 +341,27 @@ impl ClothSolver {
                 }
             }
             for iteration in 0..iterations {
+                // The colliders and self-collision first (all but mass-spring), so that the
+                // cloth's constraints after them carry every push on to the rest of the cloth
+                // within the iteration (see the module docs).
+                if !mass_spring {
+                    if !colliders.is_empty() {
+                        collider_pass.project(
+                            &mut self.contacts,
+                            &mut self.thin_contacts,
+                            (x, x_prev, v, w),
+                            ContactPass::Iteration { friction_step },
+                        );
+                        t.contacts += laps.lap();
+                    }
+                    if let Some(sc) = self_collision.as_deref() {
+                        let touching = sc.project(x, x_prev, w, settings.friction, None);
+                        if iteration + 1 == iterations {
+                            self.self_contacts = self.self_contacts.max(touching);
+                        }
+                        t.self_collision += laps.lap();
+                    }
+                }
                 if let Some(halves) = halves.as_deref_mut() {
                     let sweep = Sweep {
                         long_range,
@@ -398,41 +431,39 @@ impl ClothSolver {
                     }
                 }
                 t.constraints += laps.lap();
-                // Self-collision before the colliders, so that pushing layers apart never
-                // leaves a particle inside a collider. Mass-spring's is discrete: the
-                // correction also changes the velocity.
-                if let Some(sc) = self_collision.as_deref() {
-                    let discrete = mass_spring.then_some((v.as_mut_slice(), inv_h));
-                    let touching = sc.project(x, x_prev, w, settings.friction, discrete);
-                    if iteration + 1 == iterations {
+                // Mass-spring (one iteration, no constraints of its own): self-collision, then
+                // the colliders, so that pushing layers apart never leaves a particle inside a
+                // collider. Its self-collision is discrete: the correction also changes the
+                // velocity.
+                if mass_spring {
+                    if let Some(sc) = self_collision.as_deref() {
+                        let discrete = Some((v.as_mut_slice(), inv_h));
+                        let touching = sc.project(x, x_prev, w, settings.friction, discrete);
                         self.self_contacts = self.self_contacts.max(touching);
+                        t.self_collision += laps.lap();
                     }
-                    t.self_collision += laps.lap();
-                }
-                if !colliders.is_empty() {
-                    self.contacts.project(
-                        colliders,
-                        x,
-                        x_prev,
-                        v,
-                        w,
-                        contact_push,
-                        settings.thickness,
-                        friction_step,
-                    );
-                    if thin_contacts {
-                        self.thin_contacts.project(
-                            colliders,
-                            &self.contacts,
-                            &self.model.triangles,
-                            x,
-                            x_prev,
-                            w,
-                            settings.thickness,
+                    if !colliders.is_empty() {
+                        collider_pass.project(
+                            &mut self.contacts,
+                            &mut self.thin_contacts,
+                            (x, x_prev, v, w),
+                            ContactPass::Iteration {
+                                friction_step: None,
+                            },
                         );
+                        t.contacts += laps.lap();
                     }
-                    t.contacts += laps.lap();
                 }
+            }
+            // The closing pass: nothing left inside a collider.
+            if !mass_spring && !colliders.is_empty() {
+                collider_pass.project(
+                    &mut self.contacts,
+                    &mut self.thin_contacts,
+                    (x, x_prev, v, w),
+                    ContactPass::Closing,
+                );
+                t.contacts += laps.lap();
             }
 
             // 3. Velocities. XPBD and PBD: v = (x - x_prev) / h + h/2 a, computed as
@@ -479,6 +510,7 @@ impl ClothSolver {
                     x_prev,
                     v,
                     h,
+                    contact_push,
                     bounce_threshold,
                     friction_step.is_some(),
                 );
@@ -509,6 +541,36 @@ struct Particles<'a> {
     v: &'a mut [Vec3A],
     w: &'a [f32],
     first: usize,
+}
+
+/// What a pass over the colliders needs besides the particles, fixed over a step.
+struct ColliderPass<'a> {
+    colliders: &'a [SolverCollider],
+    /// The cloth's triangles, for the thin features of triangle-mesh colliders.
+    triangles: &'a [[u32; 3]],
+    /// The external acceleration's velocity change over the substep (see
+    /// `ContactScratch::project`).
+    h_a: Vec3A,
+    thickness: f32,
+    /// Whether a thin feature may touch the cloth this step.
+    thin: bool,
+}
+
+impl ColliderPass<'_> {
+    /// Projects the particle contacts, then the thin features against the cloth's triangles.
+    fn project(
+        &self,
+        contacts: &mut ContactScratch,
+        thin: &mut ThinFeatureContacts,
+        (x, x_prev, v, w): (&mut [Vec3A], &[Vec3A], &[Vec3A], &[f32]),
+        pass: ContactPass,
+    ) {
+        let c = self.colliders;
+        contacts.project(c, x, x_prev, v, w, self.h_a, self.thickness, pass);
+        if self.thin {
+            thin.project(c, contacts, self.triangles, x, x_prev, w, self.thickness);
+        }
+    }
 }
 
 /// Runs `f` on every particle: on all of them at once, or with `middle` on the two halves
