@@ -386,3 +386,82 @@ fn colliders_far_from_the_cloth_change_nothing() {
         assert_eq!(alone.state().velocities, among.state().velocities);
     }
 }
+
+/// Static friction holds a particle at its anchor, the point on the collider where friction
+/// last held it; a particle moved by hand (`ClothSolver::state_mut`) or carried with a reset
+/// starts afresh where it is put, and is not pulled back towards where it rested before.
+#[test]
+fn a_resting_particle_moved_by_hand_rests_where_it_is_put() {
+    let plane = SolverCollider::fixed(SolverShape::Plane, RigidPose::IDENTITY);
+    for method in [SolverMethod::Xpbd, SolverMethod::Pbd { stiffness: 1.0 }] {
+        let reach = plane.margin + settings(method).thickness;
+        let mut sim = particle(Vec3::new(0.3, reach, -0.2));
+        sim.set_colliders(std::slice::from_ref(&plane)).unwrap();
+        let settings = settings(method);
+        for _ in 0..30 {
+            sim.step(&settings, GRAVITY, DT).unwrap();
+        }
+        let rested = sim.state().positions[0];
+        let put = Vec3A::new(-0.7, rested.y, 0.4);
+        let state = sim.state_mut();
+        state.positions[0] = put;
+        state.velocities[0] = Vec3A::ZERO;
+        for _ in 0..30 {
+            sim.step(&settings, GRAVITY, DT).unwrap();
+        }
+        let now = sim.state().positions[0];
+        println!(
+            "{}: rested at {rested}, put at {put}, now at {now}",
+            method.name()
+        );
+        assert!(
+            (now - put).length() < 1e-5,
+            "{}: moved to {now}",
+            method.name()
+        );
+    }
+}
+
+/// A sheet draped over a sphere: its particles end a step anywhere from the sphere's surface
+/// out to the contact distance (the cloth's constraints come last in each iteration), and
+/// `draw_lifts` moves every touching one back out to that distance along its normal, and
+/// leaves the others where they are.
+#[test]
+fn draw_lifts_take_touching_particles_out_to_the_contact_distance() {
+    let radius = 0.3;
+    let sphere = SolverCollider::fixed(
+        SolverShape::Sphere { radius },
+        RigidPose {
+            translation: Vec3A::ZERO,
+            rotation: Quat::IDENTITY,
+        },
+    );
+    let grid = GridDesc::square(1.0, 24, Vec3::new(-0.5, radius + 0.05, -0.5));
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    sim.set_colliders(std::slice::from_ref(&sphere)).unwrap();
+    let settings = SolverSettings::default();
+    let reach = sphere.margin + settings.thickness;
+    let mut lifts = Vec::new();
+    let (mut lifted, mut closest) = (0, f32::INFINITY);
+    for _ in 0..120 {
+        sim.step(&settings, GRAVITY, DT).unwrap();
+        sim.draw_lifts(&mut lifts);
+        assert_eq!(lifts.len(), sim.state().positions.len());
+        for (&p, &lift) in sim.state().positions.iter().zip(&lifts) {
+            let d = p.length() - radius;
+            closest = closest.min(d);
+            if lift == Vec3A::ZERO {
+                continue;
+            }
+            lifted += 1;
+            let drawn = (p + lift).length() - radius;
+            assert!(
+                d < reach && (drawn - reach).abs() < 1e-4,
+                "{d} lifted to {drawn}"
+            );
+            assert!(lift.length() <= reach + 1e-6);
+        }
+    }
+    println!("{lifted} lifts; closest particle {closest:.2e} m from the sphere");
+    assert!(lifted > 0 && closest >= -1e-5);
+}

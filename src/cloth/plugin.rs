@@ -249,6 +249,8 @@ pub struct ClothSimulation {
     vertex_colors: Vec<[f32; 4]>,
     /// Interpolated particle positions in the mesh's frame, for the normals.
     local_positions: Vec<[f32; 3]>,
+    /// Per particle, how far it is drawn lifted off a collider ([`ClothSolver::draw_lifts`]).
+    lifts: Vec<Vec3A>,
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
     /// Whether the mesh is drawn with a vertex per triangle corner (per-triangle colours).
@@ -421,6 +423,7 @@ fn build_simulation(
             colors: Vec::new(),
             vertex_colors: Vec::new(),
             local_positions: Vec::new(),
+            lifts: Vec::new(),
             base_colors: Vec::new(),
             flat: FlatLayout::default(),
             warned_paint: false,
@@ -878,17 +881,19 @@ fn write_back_meshes(
         if current.len() != simulation.render_from.len() {
             continue;
         }
-        // Interpolated particle positions in the mesh's frame, and their normals.
+        // Interpolated particle positions in the mesh's frame, lifted off the colliders they
+        // touch, and their normals.
+        simulation.sim.draw_lifts(&mut simulation.lifts);
         simulation.local_positions.clear();
-        simulation
-            .local_positions
-            .extend(
-                simulation
-                    .render_from
-                    .iter()
-                    .zip(current)
-                    .map(|(&from, &to)| {
-                        let world = match &frame {
+        simulation.local_positions.extend(
+            simulation
+                .render_from
+                .iter()
+                .zip(current)
+                .zip(&simulation.lifts)
+                .map(|((&from, &to), &lift)| {
+                    let world = lift
+                        + match &frame {
                             Some((step, drawn)) => drawn.transform_point(
                                 step.start
                                     .inverse_transform_point(from)
@@ -896,9 +901,9 @@ fn write_back_meshes(
                             ),
                             None => from.lerp(to, alpha),
                         };
-                        to_local.transform_point3a(world).to_array()
-                    }),
-            );
+                    to_local.transform_point3a(world).to_array()
+                }),
+        );
         let triangles = &simulation.sim.model().triangles;
         vertex_normals(
             &simulation.local_positions,

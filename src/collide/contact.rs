@@ -141,6 +141,8 @@ pub(crate) struct ContactScratch {
     held: Vec<Vec3A>,
     /// Per particle, where static friction holds it (see [`Anchor`]).
     anchors: Vec<Anchor>,
+    /// The cloth's thickness in the current step.
+    thickness: f32,
     /// The colliders' poses at the start and the end of the current substep.
     start_poses: Vec<RigidPose>,
     poses: Vec<RigidPose>,
@@ -163,6 +165,7 @@ impl ContactScratch {
         particles: usize,
         thickness: f32,
     ) {
+        self.thickness = thickness;
         self.contacts.resize(particles, Contact::EMPTY);
         self.held.resize(particles, Vec3A::ZERO);
         self.anchors.resize(particles, Anchor::NONE);
@@ -318,7 +321,7 @@ impl ContactScratch {
                     // friction last held the particle (its anchor on this collider), or
                     // since the substep began.
                     let anchor = &mut self.anchors[i];
-                    let anchored = anchor.collider == k as u32;
+                    let anchored = anchor.collider == k as u32 && anchor.point.is_finite();
                     let reference = if anchored {
                         anchor.point
                     } else {
@@ -392,7 +395,10 @@ impl ContactScratch {
                 // holds moves as its anchor does (`x - x_prev` with the anchor for `x`), not
                 // by what the cloth's constraints slid it after the colliders' pass.
                 let anchor = self.anchors[i];
-                let ut = if anchor.holding && anchor.collider == c.collider {
+                let ut = if anchor.holding
+                    && anchor.collider == c.collider
+                    && anchor.point.is_finite()
+                {
                     let u = (anchor.point - x_prev[i]) / h + 0.5 * h_a - c.surface_velocity;
                     u - n * n.dot(u)
                 } else {
@@ -418,6 +424,27 @@ impl ContactScratch {
     /// Per particle, the normal of its latest contact, zero if none.
     pub(crate) fn held(&self) -> &[Vec3A] {
         &self.held
+    }
+
+    /// Per particle of `x`, the move along its contact normal that takes it out to the
+    /// contact distance (`margin + thickness`) of the collider it touched in the last
+    /// substep, at the collider's pose at the end of the step; zero for the others. Written
+    /// into `out`, one per particle.
+    pub(crate) fn lifts(&self, colliders: &[SolverCollider], x: &[Vec3A], out: &mut Vec<Vec3A>) {
+        out.clear();
+        out.resize(x.len(), Vec3A::ZERO);
+        for ((out, c), &p) in out.iter_mut().zip(&self.contacts).zip(x) {
+            let Some(collider) = colliders.get(c.collider as usize) else {
+                continue;
+            };
+            let reach = collider.margin + self.thickness;
+            if let Some(d) = collider.signed_distance(p, reach)
+                && d < reach
+                && (c.normal * (reach - d)).is_finite()
+            {
+                *out = c.normal * (reach - d);
+            }
+        }
     }
 
     /// Moves the friction anchors with the cloth when it is carried (a followed frame).

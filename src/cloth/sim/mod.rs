@@ -459,8 +459,10 @@ impl ClothSolver {
 
     /// The state, for setting positions or velocities directly. Inverse masses are managed by
     /// the sim (pins, density): change them through [`ClothSolver::set_pins`] and
-    /// [`ClothSolver::set_density`].
+    /// [`ClothSolver::set_density`]. The contacts of the last step and the points static
+    /// friction held particles at are forgotten.
     pub fn state_mut(&mut self) -> &mut ClothState {
+        self.contacts.forget();
         &mut self.state
     }
 
