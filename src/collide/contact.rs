@@ -240,9 +240,10 @@ impl ContactScratch {
         (&self.start_poses, &self.poses)
     }
 
-    /// Moves every free particle out of every collider (step 1 of the [module docs](self)),
-    /// with friction on the positions when `friction_step` holds the substep's length (step
-    /// 2). `v` are the velocities the approach speed is measured from, `h_a` the external
+    /// Moves every free particle out of every collider (step 1 of the [module docs](self)) to
+    /// the reach of `pass`, with the cloth's thickness given to [`Self::begin_step`], and
+    /// with friction on the positions when the pass has a substep length for it (step 2).
+    /// `v` are the velocities the approach speed is measured from, `h_a` the external
     /// acceleration's velocity change over the substep still to come (zero if `v` has it).
     /// `x_prev` are the positions at the start of the substep: a particle whose move since
     /// then, relative to a triangle mesh, crossed one of its triangles is put back on the
@@ -256,7 +257,6 @@ impl ContactScratch {
         v: &[Vec3A],
         w: &[f32],
         h_a: Vec3A,
-        thickness: f32,
         pass: ContactPass,
     ) {
         let friction_step = match pass {
@@ -270,7 +270,7 @@ impl ContactScratch {
             let start_pose = self.start_poses[k];
             let bounds = self.bounds[k];
             let reach = match pass {
-                ContactPass::Iteration { .. } => collider.margin + thickness,
+                ContactPass::Iteration { .. } => collider.margin + self.thickness,
                 ContactPass::Closing => 0.0,
             };
             let swept = matches!(collider.shape, super::SolverShape::TriangleMesh(_));
@@ -441,9 +441,11 @@ impl ContactScratch {
             let reach = collider.margin + self.thickness;
             if let Some(d) = collider.signed_distance(p, reach)
                 && d < reach
-                && (c.normal * (reach - d)).is_finite()
             {
-                *out = c.normal * (reach - d);
+                let lift = c.normal * (reach - d);
+                if lift.is_finite() {
+                    *out = lift;
+                }
             }
         }
     }

@@ -551,6 +551,7 @@ struct ColliderPass<'a> {
     /// The external acceleration's velocity change over the substep (see
     /// `ContactScratch::project`).
     h_a: Vec3A,
+    /// The cloth's thickness, for the thin features (the particle contacts keep their own).
     thickness: f32,
     /// Whether a thin feature may touch the cloth this step.
     thin: bool,
@@ -566,7 +567,7 @@ impl ColliderPass<'_> {
         pass: ContactPass,
     ) {
         let c = self.colliders;
-        contacts.project(c, x, x_prev, v, w, self.h_a, self.thickness, pass);
+        contacts.project(c, x, x_prev, v, w, self.h_a, pass);
         if self.thin {
             thin.project(c, contacts, self.triangles, x, x_prev, w, self.thickness);
         }
