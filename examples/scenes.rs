@@ -7,6 +7,7 @@
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
+//!     [--adaptive 0.01] [--fixed-substeps]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
 //! ```
 //!
@@ -28,6 +29,12 @@
 //! (the median over the runs of each run's median), their ratio, and whether every run gave
 //! the same figures bit for bit.
 //!
+//! `s2` drops the sheet as a woven fabric (`Drape::settings`: free shear, a light fabric's
+//! bending, the substep count adapted to hold 1% strain from 8 x 2); `--fixed-substeps` keeps
+//! `--substeps` throughout, `--adaptive T` holds strain `T` instead. It reports the strain at
+//! the end (`max_strain`) and the largest after any frame (`largest_strain`), and the mean
+//! substep count.
+//!
 //! `collisions` throws a mass-spring sheet into a box with three spheres, one moving (which
 //! colliders it touched, in the order spheres, then the walls -X, +X, ground, top, -Z, +Z).
 //!
@@ -43,7 +50,7 @@
 
 use bevy::math::Vec3;
 use bevy_drape::cloth::plugin::DrapeSettings;
-use bevy_drape::cloth::{Gusts, PonchoDesc, SolverMethod, SolverSettings};
+use bevy_drape::cloth::{AdaptiveSubsteps, Gusts, PonchoDesc, SolverMethod, SolverSettings};
 use drape_scenes::poncho::{
     COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, headless_app, run_app,
     run_headless,
@@ -70,6 +77,7 @@ fn run() -> Result<(), String> {
         "s3" | "crowd" => PonchoScene::default().solver,
         "wind" => Flag::settings(),
         "collisions" => Collisions::settings(),
+        "s2" => Drape::settings(),
         _ => SolverSettings::default(),
     };
     let mut wave = true;
@@ -108,6 +116,10 @@ fn run() -> Result<(), String> {
             "--k-shear" => settings.springs.shear.stiffness = parse(&value()?)?,
             "--k-bend" => settings.springs.bend.stiffness = parse(&value()?)?,
             "--auto-substeps" => settings.auto_substeps = true,
+            "--adaptive" => {
+                settings.adaptive = Some(AdaptiveSubsteps::target(parse(&value()?)?));
+            }
+            "--fixed-substeps" => settings.adaptive = None,
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
             "--self-collision" => settings.self_collision = true,
@@ -144,10 +156,10 @@ fn run() -> Result<(), String> {
         }
     };
     settings.validate().map_err(|e| e.to_string())?;
-    let frames = frames.unwrap_or(if scene == "s3" || scene == "crowd" {
-        600
-    } else {
-        120
+    let frames = frames.unwrap_or(match scene.as_str() {
+        "s3" | "crowd" => 600,
+        "s2" => 180,
+        _ => 120,
     });
     if n < 2 {
         return Err("--n must be at least 2".into());
@@ -235,12 +247,19 @@ fn run() -> Result<(), String> {
             let x = &run.sim.state().positions;
             let centre = x[(n / 2 * n + n / 2) as usize];
             println!(
-                "{{\"scene\":\"s2\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"contacts\":{},\"centre\":[{:.4},{:.4},{:.4}],\"finite\":{}}}",
+                "{{\"scene\":\"s2\",\"n\":{n},\"method\":\"{method}\",\"substeps\":{},\"iterations\":{},\"adaptive_target\":{},\"mean_substeps\":{:.1},\"shear_compliance\":{},\"bend_compliance\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"deepest_penetration\":{:.6},\"max_strain\":{:.6},\"largest_strain\":{:.6},\"contacts\":{},\"centre\":[{:.4},{:.4},{:.4}],\"finite\":{}}}",
                 settings.substeps,
                 settings.iterations,
+                settings
+                    .adaptive
+                    .map_or("null".to_string(), |a| a.target_strain.to_string()),
+                run.mean_substeps,
+                json_number(settings.shear_compliance),
+                settings.bend_compliance,
                 median(&all_frames) * 1e3,
                 run.deepest_penetration,
                 run.max_strain,
+                run.largest_strain,
                 run.sim.contact_count(),
                 centre.x,
                 centre.y,
@@ -441,4 +460,13 @@ fn repeat<R>(
 
 fn parse<T: std::str::FromStr>(s: &str) -> Result<T, String> {
     s.parse().map_err(|_| format!("cannot parse {s:?}"))
+}
+
+/// `x` as a JSON value: a number, or the string `"inf"` for an infinite one.
+fn json_number(x: f32) -> String {
+    if x.is_finite() {
+        x.to_string()
+    } else {
+        format!("\"{x}\"")
+    }
 }

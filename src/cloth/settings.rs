@@ -136,9 +136,8 @@ pub struct SolverSettings {
     /// substep count: tethers from every free particle to its nearest pinned particles (Kim,
     /// Chentanez and Mueller 2012), as long as the distance along the cloth at rest
     /// (`cloth/rest_paths.rs`), and stretch limits along the straight lines of the rest
-    /// shape (`cloth/stretch_limits.rs`), and, on a cloth with colliders, tethers from
-    /// every free particle to the nearest particle a collider holds (rebuilt every step). All only refuse lengthening beyond the
-    /// rest shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). For XPBD
+    /// shape (`cloth/stretch_limits.rs`). Both only refuse lengthening beyond the rest
+    /// shape, so turn them off for a stretchy cloth (`stretch_compliance > 0`). For XPBD
     /// and PBD; mass-spring never takes them and the hybrid only with
     /// `SolverMethod::Hybrid { long_range: true }`. Default: `true`.
     pub long_range_attachments: bool,

@@ -24,8 +24,8 @@
 //!    for the first iteration alone at 10 x 2, 1.92 ms); the first alone also left a floor of
 //!    0.6 to 0.8% whatever the budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%,
 //!    0.43%, 0.50%). Bending in the last iteration alone costs what the first did and holds S1
-//!    as well, but leaves S2 at N = 64 stretched 75% (bending after the edges pushes the sheet
-//!    into the sphere every substep).
+//!    as well, but leaves S2 with S1's cloth at N = 64 stretched 75% (bending after the edges
+//!    pushes the sheet into the sphere every substep).
 //! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
 //!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
 //!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its self-collision and
