@@ -1140,6 +1140,92 @@ fn a_fine_mesh_drawn_over_a_coarse_simulation_follows_it_smoothly() {
     );
 }
 
+/// Sheets draped over a sphere, one drawn with its own mesh and one simulated on a coarse mesh
+/// and drawn with a finer one: the particles end a step anywhere from the sphere's surface out
+/// to the contact distance, and the coarse mesh's chords cut into it, but every drawn vertex
+/// is at least the contact distance from the sphere (`collide/skin.rs`), and those of the
+/// sheet that is its own mesh stay within it of their particles.
+#[test]
+fn a_cloth_on_a_sphere_is_drawn_outside_it() {
+    let mut app = app();
+    let radius = 0.3;
+    app.world_mut()
+        .spawn((ClothCollider::sphere(radius), Transform::default()));
+    let own = GridDesc::square(1.0, 24, Vec3::new(-0.5, radius + 0.05, -0.5));
+    let coarse = GridDesc::square(1.0, 7, Vec3::new(-0.5, radius + 0.05, -0.5));
+    let fine = GridDesc::square(1.0, 37, Vec3::new(-0.5, radius + 0.05, -0.5));
+    let own_cloth = spawn_cloth(&mut app, &own, Cloth::default(), Transform::default());
+    let (coarse_mesh, fine_mesh) = {
+        let mut meshes = app.world_mut().resource_mut::<Assets<Mesh>>();
+        (meshes.add(grid_mesh(&coarse)), meshes.add(grid_mesh(&fine)))
+    };
+    let coarse_cloth = app
+        .world_mut()
+        .spawn((
+            Mesh3d(fine_mesh),
+            ClothSimulationMesh(coarse_mesh),
+            Cloth::default(),
+            Transform::default(),
+        ))
+        .id();
+    // The contact distance: the sphere's margin and the cloth's thickness.
+    let reach = SolverSettings::default().thickness + ClothCollider::sphere(radius).margin;
+    let (mut closest_particle, mut deepest_chord) = (f32::INFINITY, f32::INFINITY);
+    for update in 0..90 {
+        app.update();
+        if update < 30 {
+            continue;
+        }
+        for cloth in [own_cloth, coarse_cloth] {
+            let drawn = positions(&app, cloth);
+            assert!(drawn.iter().all(|p| p.is_finite()));
+            for p in &drawn {
+                assert!(
+                    p.length() - radius >= reach - 1e-4,
+                    "a drawn vertex {} m from the sphere",
+                    p.length() - radius
+                );
+            }
+            let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
+            let x: Vec<Vec3> = sim.state().positions.iter().map(|&p| p.into()).collect();
+            closest_particle = x
+                .iter()
+                .map(|p| p.length() - radius)
+                .fold(closest_particle, f32::min);
+            if cloth == coarse_cloth {
+                for t in &sim.model().triangles {
+                    for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                        let middle = (x[a as usize] + x[b as usize]) * 0.5;
+                        deepest_chord = deepest_chord.min(middle.length() - radius);
+                    }
+                }
+            }
+        }
+    }
+    // Paused, a cloth is drawn at its last state: the sheet drawn with its own mesh has a
+    // vertex per particle, moved no further than out to the contact distance.
+    app.world_mut().resource_mut::<DrapeSettings>().paused = true;
+    for _ in 0..3 {
+        app.update();
+    }
+    let sim = app
+        .world()
+        .get::<ClothSimulation>(own_cloth)
+        .unwrap()
+        .solver();
+    let drawn = positions(&app, own_cloth);
+    assert_eq!(drawn.len(), sim.state().positions.len());
+    for (p, &q) in drawn.iter().zip(&sim.state().positions) {
+        assert!(p.distance(q.into()) <= reach + 1e-4, "{p} drawn for {q}");
+    }
+    println!(
+        "closest particle {closest_particle:.2e} m from the sphere, the coarse mesh's chords \
+         {deepest_chord:.3} m"
+    );
+    assert!(closest_particle >= -1e-5 && closest_particle < reach);
+    assert!(deepest_chord < -0.005, "{deepest_chord}");
+}
+
 /// Independent cloths stepped on Bevy's compute task pool (`DrapeSettings::max_threads`)
 /// end where they end stepped one after another, bit for bit.
 #[test]

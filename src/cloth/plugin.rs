@@ -20,9 +20,16 @@ use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use super::sim::{ClothSolver, Divergence, Join, OneThread, StepTimings, with_helper};
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
+use crate::collide::skin::{DrawnColliders, drawn_poses};
+use crate::collide::trimesh::Aabb;
 use crate::collide::{
     ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider, Teleport,
 };
+
+/// How far beyond its particles a drawn cloth's render vertices may lie (their offsets from the
+/// simulated surface and the curved triangles' bulge), for the colliders it is kept outside of,
+/// metres.
+const DRAWN_BOUNDS_MARGIN: f32 = 0.1;
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
@@ -249,8 +256,12 @@ pub struct ClothSimulation {
     vertex_colors: Vec<[f32; 4]>,
     /// Interpolated particle positions in the mesh's frame, for the normals.
     local_positions: Vec<[f32; 3]>,
-    /// Per particle, how far it is drawn lifted off a collider ([`ClothSolver::draw_lifts`]).
-    lifts: Vec<Vec3A>,
+    /// Interpolated particle positions in the world, kept outside the colliders.
+    drawn_world: Vec<Vec3A>,
+    /// The colliders' poses as drawn.
+    drawn_poses: Vec<RigidPose>,
+    /// The colliders near the drawn cloth (`collide/skin.rs`).
+    skin: DrawnColliders,
     /// The mesh's own vertex colours (white if it had none), shown when debug colours are off.
     base_colors: Vec<[f32; 4]>,
     /// Whether the mesh is drawn with a vertex per triangle corner (per-triangle colours).
@@ -423,7 +434,9 @@ fn build_simulation(
             colors: Vec::new(),
             vertex_colors: Vec::new(),
             local_positions: Vec::new(),
-            lifts: Vec::new(),
+            drawn_world: Vec::new(),
+            drawn_poses: Vec::new(),
+            skin: DrawnColliders::default(),
             base_colors: Vec::new(),
             flat: FlatLayout::default(),
             warned_paint: false,
@@ -881,29 +894,58 @@ fn write_back_meshes(
         if current.len() != simulation.render_from.len() {
             continue;
         }
-        // Interpolated particle positions in the mesh's frame, lifted off the colliders they
-        // touch, and their normals.
-        simulation.sim.draw_lifts(&mut simulation.lifts);
-        simulation.local_positions.clear();
-        simulation.local_positions.extend(
-            simulation
-                .render_from
-                .iter()
-                .zip(current)
-                .zip(&simulation.lifts)
-                .map(|((&from, &to), &lift)| {
-                    let world = lift
-                        + match &frame {
-                            Some((step, drawn)) => drawn.transform_point(
-                                step.start
-                                    .inverse_transform_point(from)
-                                    .lerp(step.end.inverse_transform_point(to), alpha),
-                            ),
-                            None => from.lerp(to, alpha),
-                        };
-                    to_local.transform_point3a(world).to_array()
-                }),
+        // Interpolated particle positions in the world, then the colliders as drawn near
+        // them, which every drawn point is kept outside (`collide/skin.rs`): the particles
+        // here, a finer render mesh's vertices as it is written.
+        simulation.drawn_world.clear();
+        simulation
+            .drawn_world
+            .extend(
+                simulation
+                    .render_from
+                    .iter()
+                    .zip(current)
+                    .map(|(&from, &to)| match &frame {
+                        Some((step, drawn)) => drawn.transform_point(
+                            step.start
+                                .inverse_transform_point(from)
+                                .lerp(step.end.inverse_transform_point(to), alpha),
+                        ),
+                        None => from.lerp(to, alpha),
+                    }),
+            );
+        let colliders = simulation.sim.colliders();
+        drawn_poses(
+            colliders,
+            alpha,
+            frame.as_ref().map(|(step, drawn)| (step, drawn)),
+            &mut simulation.drawn_poses,
         );
+        let bounds = simulation
+            .drawn_world
+            .iter()
+            .fold(Aabb::EMPTY, |b, &p| b.grown(p));
+        // Render vertices lie off the simulated surface by their offsets and the curved
+        // triangles' bulge: a margin for both.
+        let bounds = Aabb {
+            min: bounds.min - Vec3A::splat(DRAWN_BOUNDS_MARGIN),
+            max: bounds.max + Vec3A::splat(DRAWN_BOUNDS_MARGIN),
+        };
+        simulation.skin.prepare(
+            colliders,
+            &simulation.drawn_poses,
+            simulation.sim.contact_thickness(),
+            bounds,
+        );
+        let skin = &simulation.skin;
+        simulation.local_positions.clear();
+        simulation
+            .local_positions
+            .extend(simulation.drawn_world.iter().map(|&world| {
+                to_local
+                    .transform_point3a(skin.push_out(colliders, world))
+                    .to_array()
+            }));
         let triangles = &simulation.sim.model().triangles;
         vertex_normals(
             &simulation.local_positions,
@@ -914,6 +956,7 @@ fn write_back_meshes(
             // A finer mesh drawn over the simulated one.
             let colors =
                 (!simulation.colors.is_empty()).then_some((&simulation.colors[..], target));
+            let to_world = global.affine();
             render.write(
                 &mut mesh,
                 &simulation.local_positions,
@@ -921,6 +964,10 @@ fn write_back_meshes(
                 triangles,
                 colors,
                 &mut simulation.vertex_colors,
+                |p| {
+                    let world = skin.push_out(colliders, to_world.transform_point3a(p.into()));
+                    to_local.transform_point3a(world).into()
+                },
             );
             let colors = if colors.is_some() {
                 &simulation.vertex_colors

@@ -80,8 +80,11 @@ impl EmbeddedRender {
     }
 
     /// Writes positions and normals into `mesh` from the simulated particles' positions in
-    /// the entity's frame and their normals, over the model's `triangles`; `colors` (per
-    /// particle or per simulated triangle) become per render vertex in `vertex_colors`.
+    /// the entity's frame and their normals, over the model's `triangles`, every render
+    /// vertex passed through `push_out` (kept outside the colliders, `collide/skin.rs`);
+    /// `colors` (per particle or per simulated triangle) become per render vertex in
+    /// `vertex_colors`.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn write(
         &mut self,
         mesh: &mut Mesh,
@@ -90,9 +93,13 @@ impl EmbeddedRender {
         triangles: &[[u32; 3]],
         colors: Option<(&[[f32; 4]], PaintTarget)>,
         vertex_colors: &mut Vec<[f32; 4]>,
+        push_out: impl Fn(Vec3) -> Vec3,
     ) {
         self.embedding
             .place(particles, particle_normals, triangles, &mut self.points);
+        for p in &mut self.points {
+            *p = push_out(*p);
+        }
         vertex_normals(&self.points, &self.triangles, &mut self.normals);
         let map = &self.vertex_to_point;
         if let Ok(Some(VertexAttributeValues::Float32x3(out))) =

@@ -427,27 +427,9 @@ impl ContactScratch {
         &self.held
     }
 
-    /// Per particle of `x`, the move along its contact normal that takes it out to the
-    /// contact distance (`margin + thickness`) of the collider it touched in the last
-    /// substep, at the collider's pose at the end of the step; zero for the others. Written
-    /// into `out`, one per particle.
-    pub(crate) fn lifts(&self, colliders: &[SolverCollider], x: &[Vec3A], out: &mut Vec<Vec3A>) {
-        out.clear();
-        out.resize(x.len(), Vec3A::ZERO);
-        for ((out, c), &p) in out.iter_mut().zip(&self.contacts).zip(x) {
-            let Some(collider) = colliders.get(c.collider as usize) else {
-                continue;
-            };
-            let reach = collider.margin + self.thickness;
-            if let Some(d) = collider.signed_distance(p, reach)
-                && d < reach
-            {
-                let lift = c.normal * (reach - d);
-                if lift.is_finite() {
-                    *out = lift;
-                }
-            }
-        }
+    /// The cloth's thickness in the current (or last) step.
+    pub(crate) fn thickness(&self) -> f32 {
+        self.thickness
     }
 
     /// Moves the friction anchors with the cloth when it is carried (a followed frame).

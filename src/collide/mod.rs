@@ -10,6 +10,7 @@ pub(crate) mod contact;
 pub mod motion;
 pub mod plugin;
 pub(crate) mod shapes;
+pub(crate) mod skin;
 pub(crate) mod thin;
 pub(crate) mod trimesh;
 

@@ -36,6 +36,22 @@ impl RigidPose {
         self.rotation.inverse() * (p - self.translation)
     }
 
+    /// A pose given in this pose's frame, in the world: `self * local`.
+    pub(crate) fn then(&self, local: &Self) -> Self {
+        Self {
+            translation: self.transform_point(local.translation),
+            rotation: (self.rotation * local.rotation).normalize(),
+        }
+    }
+
+    /// This pose seen from `frame`: `frame^-1 * self`.
+    pub(crate) fn relative_to(&self, frame: &Self) -> Self {
+        Self {
+            translation: frame.inverse_transform_point(self.translation),
+            rotation: (frame.rotation.inverse() * self.rotation).normalize(),
+        }
+    }
+
     /// The pose a fraction `t` of the way to `to`: translation lerped, rotation slerped.
     pub(crate) fn interpolate(&self, to: &Self, t: f32) -> Self {
         Self {

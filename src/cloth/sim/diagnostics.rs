@@ -64,16 +64,10 @@ impl ClothSolver {
             })
     }
 
-    /// Per particle, how far to lift it when drawing it: a particle a collider touched in the
-    /// last substep, closer to it than the contact distance (`margin + thickness`), moved out
-    /// to that distance along the contact normal; zero for the others. The cloth's own
-    /// constraints come last in each iteration, so a touching particle may end a step
-    /// anywhere between the collider's surface and the contact distance; a surface drawn
-    /// between such particles (flat, or curved over a coarse simulation mesh) would cut into
-    /// the collider, so the plugin draws them lifted. The simulation is not changed.
-    pub fn draw_lifts(&self, out: &mut Vec<Vec3A>) {
-        self.contacts
-            .lifts(&self.colliders, &self.state.positions, out);
+    /// The distance the solver keeps particles from its colliders besides their margins:
+    /// the cloth's thickness in the last step.
+    pub(crate) fn contact_thickness(&self) -> f32 {
+        self.contacts.thickness()
     }
 
     /// Strain `|len - rest| / rest` over the structural edges.

@@ -23,6 +23,9 @@ pub struct PonchoRun {
     /// The cloth stage of every fixed step by part, summed over the ponchos
     /// ([`DrapeTimings::cloth_parts`]).
     pub cloth_parts: Vec<bevy_drape::cloth::StepTimings>,
+    /// Wall time of writing the ponchos into their meshes in the frame after every fixed
+    /// step ([`DrapeTimings::write_back`]; not part of the fixed step), milliseconds.
+    pub write_back_ms: Vec<f64>,
     /// The deepest any particle was inside any capsule or sphere proxy after any step, metres
     /// (measured from the proxy's surface, without its margin; 0 if none was).
     pub deepest_penetration: f32,
@@ -87,6 +90,7 @@ struct S3Line {
     ms_self_collision: f64,
     ms_contacts: f64,
     self_collision_share: f64,
+    ms_write_back: f64,
     deepest_penetration: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
@@ -139,6 +143,7 @@ impl PonchoRun {
             ms_contacts: self.median_part_ms(|p| p.contacts),
             self_collision_share: self.median_part_ms(|p| p.self_collision)
                 / self.median_part_ms(|p| p.total()),
+            ms_write_back: crate::scenes::median(&self.write_back_ms),
             deepest_penetration: self.deepest_penetration,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
@@ -324,6 +329,7 @@ pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
             ms(timings.colliders),
             ms(timings.cloth),
         ]);
+        run.write_back_ms.push(ms(timings.write_back));
         measure(&mut app, &mut run);
         if let (Some(a), Some(b)) = (start, character_position(&mut app)) {
             run.travelled = run.travelled.max(a.distance(b));
