@@ -21,15 +21,9 @@ use super::sim::{ClothSolver, Divergence, Join, OneThread, StepTimings, with_hel
 use super::weld::{default_tolerance, weld};
 use crate::collide::plugin::{StepColliders, world_pose};
 use crate::collide::skin::{DrawnColliders, drawn_poses};
-use crate::collide::trimesh::Aabb;
 use crate::collide::{
     ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider, Teleport,
 };
-
-/// How far beyond its particles a drawn cloth's render vertices may lie (their offsets from the
-/// simulated surface and the curved triangles' bulge), for the colliders it is kept outside of,
-/// metres.
-const DRAWN_BOUNDS_MARGIN: f32 = 0.1;
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
@@ -921,21 +915,11 @@ fn write_back_meshes(
             frame.as_ref().map(|(step, drawn)| (step, drawn)),
             &mut simulation.drawn_poses,
         );
-        let bounds = simulation
-            .drawn_world
-            .iter()
-            .fold(Aabb::EMPTY, |b, &p| b.grown(p));
-        // Render vertices lie off the simulated surface by their offsets and the curved
-        // triangles' bulge: a margin for both.
-        let bounds = Aabb {
-            min: bounds.min - Vec3A::splat(DRAWN_BOUNDS_MARGIN),
-            max: bounds.max + Vec3A::splat(DRAWN_BOUNDS_MARGIN),
-        };
         simulation.skin.prepare(
             colliders,
             &simulation.drawn_poses,
             simulation.sim.contact_thickness(),
-            bounds,
+            &simulation.drawn_world,
         );
         let skin = &simulation.skin;
         simulation.local_positions.clear();

@@ -15,6 +15,10 @@ use super::motion::FrameStep;
 use super::shapes::{RigidPose, SolverCollider};
 use super::trimesh::Aabb;
 
+/// How far beyond its particles a drawn cloth's points may lie (a render mesh's offsets from
+/// the simulated surface and its curved triangles' bulge), metres.
+const DRAWN_BOUNDS_MARGIN: f32 = 0.1;
+
 /// A collider near a drawn cloth.
 #[derive(Clone, Copy, Debug)]
 struct Near {
@@ -37,16 +41,25 @@ pub(crate) struct DrawnColliders {
 }
 
 impl DrawnColliders {
-    /// Prepares for points inside `bounds` (world): the colliders at `poses` (one per
-    /// collider) whose shape comes within the contact distance (`margin + thickness`) of it.
+    /// Prepares to draw a cloth whose particles are drawn at `particles` (world): the
+    /// colliders at `poses` (one per collider) whose shape comes within the contact distance
+    /// (`margin + thickness`) of the particles' bounds grown by [`DRAWN_BOUNDS_MARGIN`].
     pub(crate) fn prepare(
         &mut self,
         colliders: &[SolverCollider],
         poses: &[RigidPose],
         thickness: f32,
-        bounds: Aabb,
+        particles: &[Vec3A],
     ) {
         self.near.clear();
+        let bounds = particles
+            .iter()
+            .filter(|p| p.is_finite())
+            .fold(Aabb::EMPTY, |b, &p| b.grown(p));
+        let bounds = Aabb {
+            min: bounds.min - Vec3A::splat(DRAWN_BOUNDS_MARGIN),
+            max: bounds.max + Vec3A::splat(DRAWN_BOUNDS_MARGIN),
+        };
         for (k, (collider, pose)) in colliders.iter().zip(poses).enumerate() {
             let reach = collider.margin + thickness;
             if !(reach.is_finite() && pose.translation.is_finite() && pose.rotation.is_finite()) {
@@ -181,11 +194,8 @@ mod tests {
             let colliders = random_colliders(&mut rng);
             let poses: Vec<RigidPose> = colliders.iter().map(|c| c.end).collect();
             let mut skin = DrawnColliders::default();
-            let bounds = Aabb {
-                min: Vec3A::splat(-1.0),
-                max: Vec3A::splat(1.0),
-            };
-            skin.prepare(&colliders, &poses, thickness, bounds);
+            let corners = [Vec3A::splat(-1.0), Vec3A::splat(1.0)];
+            skin.prepare(&colliders, &poses, thickness, &corners);
             for _ in 0..200 {
                 let p = vec(&mut rng, 0.5);
                 let q = skin.push_out(&colliders, p);
@@ -239,11 +249,8 @@ mod tests {
         let colliders = [far, ground];
         let poses = [colliders[0].end, colliders[1].end];
         let mut skin = DrawnColliders::default();
-        let bounds = Aabb {
-            min: Vec3A::splat(-1.0),
-            max: Vec3A::splat(1.0),
-        };
-        skin.prepare(&colliders, &poses, 0.01, bounds);
+        let corners = [Vec3A::splat(-1.0), Vec3A::splat(1.0)];
+        skin.prepare(&colliders, &poses, 0.01, &corners);
         assert_eq!(skin.near.len(), 1);
         assert_eq!(skin.near[0].index, 1);
         // A point under the ground comes up to the contact distance.
