@@ -462,11 +462,12 @@ fn parse<T: std::str::FromStr>(s: &str) -> Result<T, String> {
     s.parse().map_err(|_| format!("cannot parse {s:?}"))
 }
 
-/// `x` as a JSON value: a number, or the string `"inf"` for an infinite one.
+/// `x` as a JSON value: a number, or `null` if it is not finite (as the `s3` line writes an
+/// infinite shear compliance).
 fn json_number(x: f32) -> String {
     if x.is_finite() {
         x.to_string()
     } else {
-        format!("\"{x}\"")
+        "null".into()
     }
 }

@@ -187,6 +187,16 @@ impl SolverShape {
         (d < reach).then_some((d, n))
     }
 
+    /// The sphere round the local bounds at `pose`, grown by `reach`: its centre (world) and
+    /// radius; `None` for the (infinite) plane.
+    pub(crate) fn bounding_sphere(&self, pose: &RigidPose, reach: f32) -> Option<(Vec3A, f32)> {
+        let local = self.local_bounds()?;
+        Some((
+            pose.transform_point((local.min + local.max) * 0.5),
+            (local.max - local.min).length() * 0.5 + reach,
+        ))
+    }
+
     /// The local bounds, `None` for the (infinite) plane.
     pub(crate) fn local_bounds(&self) -> Option<Aabb> {
         match self {
@@ -365,13 +375,10 @@ impl SolverCollider {
 
     /// World bounds over the whole step, grown by `reach`; `None` for a plane.
     pub(crate) fn swept_bounds(&self, reach: f32) -> Option<Aabb> {
-        let local = self.shape.local_bounds()?;
-        // The bounding sphere of the local box, at both ends of the step: rotation-proof.
-        let centre = (local.min + local.max) * 0.5;
-        let radius = (local.max - local.min).length() * 0.5 + reach;
+        // The bounding sphere at both ends of the step: rotation-proof.
         let mut bounds = Aabb::EMPTY;
         for pose in [self.start, self.end] {
-            let c = pose.transform_point(centre);
+            let (c, radius) = self.shape.bounding_sphere(&pose, reach)?;
             bounds = bounds.union(Aabb {
                 min: c - Vec3A::splat(radius),
                 max: c + Vec3A::splat(radius),

@@ -65,16 +65,9 @@ impl DrawnColliders {
             if !(reach.is_finite() && pose.translation.is_finite() && pose.rotation.is_finite()) {
                 continue;
             }
-            // The bounding sphere of the local box at the drawn pose.
-            let (centre, radius_squared) = match collider.shape.local_bounds() {
+            let (centre, radius_squared) = match collider.shape.bounding_sphere(pose, reach) {
                 None => (pose.translation, f32::INFINITY),
-                Some(local) => {
-                    let radius = (local.max - local.min).length() * 0.5 + reach;
-                    (
-                        pose.transform_point((local.min + local.max) * 0.5),
-                        radius * radius,
-                    )
-                }
+                Some((centre, radius)) => (centre, radius * radius),
             };
             if bounds.distance_squared(centre) <= radius_squared {
                 self.near.push(Near {
@@ -231,8 +224,7 @@ mod tests {
     }
 
     fn bound_radius(c: &SolverCollider) -> f32 {
-        let b = c.shape.local_bounds().unwrap();
-        (b.max - b.min).length() * 0.5 + c.margin
+        c.shape.bounding_sphere(&c.end, c.margin).unwrap().1
     }
 
     /// A collider far from the cloth's bounds is left out; a plane never is.
