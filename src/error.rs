@@ -171,3 +171,40 @@ pub enum MeshError {
     #[error("the mesh data is not in the main world; create it with RenderAssetUsages::MAIN_WORLD")]
     MeshDataUnavailable,
 }
+
+/// Why a fluid could not be built or changed.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum FluidError {
+    /// A fluid setting is out of range.
+    #[error("fluid setting {name} = {value} is invalid: {reason}")]
+    InvalidSetting {
+        /// The setting's name.
+        name: &'static str,
+        /// Its value.
+        value: f32,
+        /// What the valid range is.
+        reason: &'static str,
+    },
+    /// A particle's position or velocity is NaN or infinite.
+    #[error("fluid particle {particle} has a non-finite position or velocity")]
+    NonFiniteParticle {
+        /// The offending particle, counted in the list given.
+        particle: usize,
+    },
+    /// A box of particles has a corner that is not finite, or no room for one particle.
+    #[error("the fluid box from {min:?} to {max:?} holds no particle")]
+    EmptyBox {
+        /// The box's smallest corner.
+        min: [f32; 3],
+        /// Its largest corner.
+        max: [f32; 3],
+    },
+    /// A collider's shape, material, margin or pose is invalid.
+    #[error("fluid collider {index}: {source}")]
+    InvalidCollider {
+        /// The collider's place in the list given.
+        index: usize,
+        /// What is wrong with it.
+        source: ColliderError,
+    },
+}

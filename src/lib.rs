@@ -8,6 +8,7 @@ pub use bevy_obj;
 pub mod collide;
 pub mod error;
 pub mod files;
+pub mod fluid;
 pub mod interact;
 pub mod mesh;
 pub mod schedule;
