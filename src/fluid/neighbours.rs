@@ -21,15 +21,16 @@ pub(crate) struct Neighbours {
 
 /// A cell's integer coordinates hashed into `mask + 1` buckets.
 #[inline(always)]
-fn hash(c: [i32; 3], mask: u32) -> u32 {
+pub(crate) fn bucket(c: [i32; 3], mask: u32) -> u32 {
     let h = (c[0].wrapping_mul(92_837_111))
         ^ (c[1].wrapping_mul(689_287_499))
         ^ (c[2].wrapping_mul(283_923_481));
     (h as u32) & mask
 }
 
+/// The integer coordinates of the cell of width `1 / inv` that holds `p`.
 #[inline(always)]
-fn cell(p: Vec3A, inv: f32) -> [i32; 3] {
+pub(crate) fn cell_of(p: Vec3A, inv: f32) -> [i32; 3] {
     let c = (p * inv).floor();
     [c.x as i32, c.y as i32, c.z as i32]
 }
@@ -46,7 +47,7 @@ impl Neighbours {
         self.cell_start.resize(buckets + 1, 0);
         self.cell_of.clear();
         for &p in x {
-            let b = hash(cell(p, inv), mask);
+            let b = bucket(cell_of(p, inv), mask);
             self.cell_of.push(b);
             self.cell_start[b as usize + 1] += 1;
         }
@@ -70,12 +71,12 @@ impl Neighbours {
         self.start.push(0);
         let mut seen = [u32::MAX; 27];
         for (i, &p) in x.iter().enumerate() {
-            let c = cell(p, inv);
+            let c = cell_of(p, inv);
             let mut buckets_seen = 0;
             for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
-                        let b = hash([c[0] + dx, c[1] + dy, c[2] + dz], mask);
+                        let b = bucket([c[0] + dx, c[1] + dy, c[2] + dz], mask);
                         // Two neighbouring cells may hash to one bucket: visit it once.
                         if seen[..buckets_seen].contains(&b) {
                             continue;

@@ -33,6 +33,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 
+use super::cloth_coupling::ClothBoundary;
 use super::kernels::Kernels;
 use super::neighbours::Neighbours;
 use super::settings::FluidSettings;
@@ -291,16 +292,22 @@ impl FluidSolver {
                 .sum::<f32>()
     }
 
-    /// Advances the fluid by `dt` seconds under the acceleration `gravity`.
-    pub fn step(&mut self, gravity: Vec3, dt: f32) {
+    /// Advances the fluid by `dt` seconds under the acceleration `gravity`, kept off the
+    /// cloths `cloths` (each tracked after its own step; see [`ClothBoundary`]), whose
+    /// impulses are kept in them for [`ClothBoundary::give_impulses`].
+    pub fn step(&mut self, gravity: Vec3, dt: f32, cloths: &mut [ClothBoundary]) {
         if self.positions.is_empty() || !(dt > 0.0 && dt.is_finite()) || !gravity.is_finite() {
             return;
+        }
+        for cloth in cloths.iter_mut() {
+            cloth.begin_step(self.settings.particle_radius);
         }
         let g = Vec3A::from(gravity);
         let substeps = self.settings.substeps.max(1);
         let h = dt / substeps as f32;
         self.build_neighbours(g, dt);
         for s in 0..substeps {
+            let t_start = s as f32 / substeps as f32;
             let t_end = (s + 1) as f32 / substeps as f32;
             for ((x, x_prev), v) in self
                 .positions
@@ -315,6 +322,17 @@ impl FluidSolver {
             for _ in 0..self.settings.iterations.max(1) {
                 self.project_density();
                 self.project_colliders(t_end);
+                for cloth in cloths.iter_mut() {
+                    cloth.project(
+                        &mut self.positions,
+                        &self.previous,
+                        t_start,
+                        t_end,
+                        self.settings.particle_radius,
+                        self.mass,
+                        h,
+                    );
+                }
             }
             let inv_h = 1.0 / h;
             for ((v, &x), &x_prev) in self
@@ -540,8 +558,8 @@ mod tests {
         ));
         assert_eq!(fluid.add_box(Vec3::ZERO, Vec3::splat(0.1)).unwrap(), 125);
         let before = fluid.positions().to_vec();
-        fluid.step(Vec3::NAN, 1.0 / 60.0);
-        fluid.step(Vec3::ZERO, f32::INFINITY);
+        fluid.step(Vec3::NAN, 1.0 / 60.0, &mut []);
+        fluid.step(Vec3::ZERO, f32::INFINITY, &mut []);
         assert_eq!(fluid.positions(), &before[..]);
     }
 
@@ -568,7 +586,7 @@ mod tests {
         let mass = fluid.particle_mass() * fluid.len() as f32;
         let start = fluid.momentum();
         for step in 1..=30 {
-            fluid.step(g, 1.0 / 60.0);
+            fluid.step(g, 1.0 / 60.0, &mut []);
             let expected = start + g * mass * step as f32 / 60.0;
             // f32 round-off: positions of a metre change by millimetres per substep.
             let error = (fluid.momentum() - expected).length();

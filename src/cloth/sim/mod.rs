@@ -141,6 +141,10 @@ pub struct ClothSolver {
     particle_wind: Vec<Vec3A>,
     /// The air's acceleration of each particle over the current step.
     air_acceleration: Vec<Vec3A>,
+    /// Accelerations from outside the cloth for its next step only (a fluid's push), added
+    /// to the air's; `pushed` says whether there are any.
+    pushes: Vec<Vec3A>,
+    pushed: bool,
     /// Wall time of the last step's parts.
     timings: StepTimings,
     /// The carried share of the followed frame's motion over the coming step
@@ -236,6 +240,8 @@ impl ClothSolver {
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
+            pushes: vec![Vec3A::ZERO; n],
+            pushed: false,
             timings: StepTimings::default(),
             carried: None,
             relative_wind: vec![Vec3A::ZERO; n],
@@ -464,6 +470,28 @@ impl ClothSolver {
     pub fn state_mut(&mut self) -> &mut ClothState {
         self.contacts.forget();
         &mut self.state
+    }
+
+    /// Adds `impulse` times each particle's inverse mass to its velocity over the next step,
+    /// spread evenly over its substeps as the air's force is (a fluid's push: given at once,
+    /// a heavy fluid's push on a light cloth outruns its constraints). Impulses on pinned
+    /// particles are dropped.
+    pub(crate) fn push_over_next_step(&mut self, impulses: &[Vec3A], dt: f32) {
+        if impulses.len() != self.pushes.len() || dt.is_nan() || dt <= 0.0 {
+            return;
+        }
+        for ((push, &j), &w) in self
+            .pushes
+            .iter_mut()
+            .zip(impulses)
+            .zip(&self.state.inverse_masses)
+        {
+            let a = j * (w / dt);
+            if a.is_finite() {
+                *push += a;
+                self.pushed = true;
+            }
+        }
     }
 
     /// The pins.
@@ -735,6 +763,13 @@ impl ClothSolver {
             );
             self.timings.air = laps.lap();
         }
+        let air_active = settings.air.is_some_and(|air| air.is_active());
+        if self.pushed {
+            for (air, push) in self.air_acceleration.iter_mut().zip(&mut self.pushes) {
+                *air = if air_active { *air + *push } else { *push };
+                *push = Vec3A::ZERO;
+            }
+        }
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
@@ -749,6 +784,9 @@ impl ClothSolver {
         }
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
+        }
+        if std::mem::take(&mut self.pushed) && !air_active {
+            self.air_acceleration.fill(Vec3A::ZERO);
         }
         Ok(())
     }

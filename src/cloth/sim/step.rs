@@ -178,9 +178,7 @@ impl ClothSolver {
         let friction_step = (!mass_spring).then_some(h);
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
-        let air = settings
-            .air
-            .is_some_and(|air| air.is_active())
+        let air = (settings.air.is_some_and(|air| air.is_active()) || self.pushed)
             .then_some(&self.air_acceleration);
         let bounce_threshold = 2.0 * a.length() * h;
 
