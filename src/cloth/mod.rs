@@ -42,6 +42,7 @@ pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use settings::{AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
+pub(crate) use sim::SubstepCoupling;
 pub use sim::{
     ClothSolver, Divergence, Join, OneThread, Pin, StepTimings, StrainStats, with_helper,
 };

@@ -1,214 +1,168 @@
-//! Fluid against cloth, both ways: the fluid's particles are kept off the cloth's triangles
-//! (not only its particles, so a fine fluid cannot pass between the particles of a coarse
-//! cloth), and every push a triangle gives a fluid particle is given back to the triangle's
-//! particles, so momentum moves between them.
+//! Fluid and cloth stepped together, in the same substeps and iterations, so that each
+//! feels the other's inertia and the cloth's constraints carry the fluid's weight within
+//! the step ([`FluidSolver::step_with_cloth`](super::FluidSolver::step_with_cloth)).
 //!
-//! A [`ClothBoundary`] follows one cloth: after each of the cloth's steps it keeps the
-//! triangles where the step began and where it ended. The fluid's step that follows sees
-//! each triangle move between the two through its substeps, and in every density iteration
-//! (after the colliders) a fluid particle of radius `r` whose projection onto a triangle's
-//! plane lies inside the triangle is moved out along the normal to distance `r`, on the side
-//! it was on at the start of the substep; one that was found across (it passed through in
-//! the sweep) is put back and counted ([`ClothBoundary::crossings`]). The push `dx` of a
-//! particle of mass `m` is an impulse `m dx / h` over the substep `h`; the cloth's particles
-//! get its opposite in the proportions of the contact point's barycentric coordinates, as a
-//! force over the cloth's next step ([`ClothBoundary::give_impulses`]): the total momentum
-//! of cloth and fluid is kept (pinned particles absorb their share).
+//! The fluid runs inside the cloth's step (`cloth/sim/step.rs`, `SubstepCoupling`): when a
+//! cloth substep of length `h` begins the fluid predicts over `h` and the cloth's triangles
+//! are sorted into a hashed grid at their predicted positions; in each of the cloth's
+//! iterations, after its colliders and before its own constraints, the fluid projects its
+//! density constraint, its colliders, then the contacts with the cloth's triangles; when the
+//! substep ends both take their velocities from their positions over the same `h`.
 //!
-//! Limitation (measured): the exchange is partitioned, one step behind, so it holds light
-//! contacts (a splash on a sheet, momentum kept to round-off) but not water resting on a
-//! much lighter cloth: 2 kg of water in a 0.06 kg bag hung from one pin tears through it
-//! within a second, and a sheet held at its corners does not carry the water's weight. That
-//! needs the contacts projected in the same iterations as the cloth's constraints.
+//! A contact: a fluid particle of radius `r` whose projection onto a triangle's plane lies
+//! inside the triangle (barycentric `b_k`), nearer the plane than `r` on the side it was on
+//! when the substep began (or across it: it went through during the sweep, and is counted
+//! in [`ClothContacts::crossings`]), is separated to distance `r` on that side as one
+//! constraint between the particle and the triangle's three particles, by their inverse
+//! masses: `dl = depth / (w_f + sum_k b_k^2 w_k)`, the fluid particle moves `w_f dl n`, each
+//! cloth particle `-b_k w_k dl n`. The masses' moments cancel (`sum_k b_k = 1`), so the
+//! momentum of cloth and fluid together is kept, pinned particles absorbing their share. So
+//! a fine fluid cannot pass between the particles of a coarse cloth, and a light cloth is
+//! pushed by heavy water only as far as its own constraints, projected right after in the
+//! same iteration, let it go.
 
 use bevy::math::Vec3A;
 
+use super::FluidSolver;
 use super::neighbours::{bucket, cell_of};
-use crate::cloth::ClothSolver;
+use crate::cloth::SubstepCoupling;
 
-/// A hashed uniform grid of the cloth's triangles over a step's motion.
+/// The contacts between a fluid and a cloth: the cloth's triangles in a hashed grid, and
+/// what the last step did.
 #[derive(Clone, Debug, Default)]
-struct TriangleGrid {
+pub struct ClothContacts {
     cell: f32,
     mask: u32,
     start: Vec<u32>,
     entries: Vec<u32>,
     /// (bucket, triangle) while building.
     pairs: Vec<(u32, u32)>,
-}
-
-/// One cloth as the fluid sees it over one step.
-#[derive(Clone, Debug, Default)]
-pub struct ClothBoundary {
-    triangles: Vec<[u32; 3]>,
-    /// The cloth's positions at the start and the end of its last step.
-    start: Vec<Vec3A>,
-    end: Vec<Vec3A>,
-    inverse_masses: Vec<f32>,
-    /// Per cloth particle, the impulse the fluid gave it in the fluid's last step, N s.
-    impulses: Vec<Vec3A>,
-    grid: TriangleGrid,
-    /// Fluid particles found across a triangle and put back, in the fluid's last step.
+    /// Fluid particles found across a triangle and put back, in the last step.
     crossings: usize,
-    /// The total of `impulses` when they were last given to the cloth.
-    given: Vec3A,
-    tracked: bool,
+    /// The impulse the fluid gave the cloth in the last step, N s.
+    impulse: Vec3A,
+    /// The fluid particles' mass and radius, and the substep's length.
+    mass: f32,
+    radius: f32,
+    h: f32,
 }
 
-impl ClothBoundary {
-    /// A boundary that follows `cloth`, starting where it is now.
-    pub fn new(cloth: &ClothSolver) -> Self {
-        let mut boundary = Self::default();
-        boundary.track(cloth);
-        boundary
-    }
-
-    /// Records where `cloth` is after its step (the end of the last one is this one's
-    /// start). Call it after every step of the cloth, before the fluid's step.
-    pub fn track(&mut self, cloth: &ClothSolver) {
-        let x = &cloth.state().positions;
-        let changed = self.end.len() != x.len();
-        if changed || !self.tracked {
-            self.triangles.clone_from(&cloth.model().triangles);
-            self.start.clone_from(x);
-        } else {
-            std::mem::swap(&mut self.start, &mut self.end);
-        }
-        self.end.clone_from(x);
-        self.inverse_masses
-            .clone_from(&cloth.state().inverse_masses);
-        self.impulses.clear();
-        self.impulses.resize(x.len(), Vec3A::ZERO);
-        self.tracked = true;
-    }
-
-    /// Fluid particles found across one of the cloth's triangles and put back in the
-    /// fluid's last step (each time counted).
+impl ClothContacts {
+    /// Fluid particles found across one of the cloth's triangles and put back in the last
+    /// step (each time counted).
     pub fn crossings(&self) -> usize {
         self.crossings
     }
 
-    /// The total impulse the fluid gave the cloth in its last step, N s (kept after
-    /// [`ClothBoundary::give_impulses`]).
-    pub fn total_impulse(&self) -> Vec3A {
-        self.given
+    /// The impulse the fluid gave the cloth in the last step, N s (the water's weight times
+    /// the step when it rests on the cloth).
+    pub fn impulse(&self) -> Vec3A {
+        self.impulse
     }
 
-    /// Gives the cloth the impulses of the fluid's last step (of length `dt`), spread over
-    /// its next step as a force, and clears them.
-    pub fn give_impulses(&mut self, cloth: &mut ClothSolver, dt: f32) {
-        self.given = self.impulses.iter().copied().sum();
-        cloth.push_over_next_step(&self.impulses, dt);
-        self.impulses.fill(Vec3A::ZERO);
-    }
-
-    /// Builds the triangle grid for a fluid of particle radius `r` (cells at least `4 r`).
-    pub(crate) fn begin_step(&mut self, r: f32) {
+    pub(crate) fn begin_step(&mut self) {
         self.crossings = 0;
+        self.impulse = Vec3A::ZERO;
+    }
+
+    /// Sorts the triangles at the cloth's positions `x` into the grid, each over its bounds
+    /// grown by `2 r` (the cloth and the fluid move a little within the substep).
+    fn sort(&mut self, x: &[Vec3A], triangles: &[[u32; 3]]) {
+        let r = self.radius;
         let mut longest = 0.0f32;
-        for t in &self.triangles {
+        for t in triangles {
             for k in 0..3 {
-                let a = self.end[t[k] as usize];
-                let b = self.end[t[(k + 1) % 3] as usize];
-                longest = longest.max(a.distance(b));
+                let d = x[t[k] as usize].distance(x[t[(k + 1) % 3] as usize]);
+                if d.is_finite() {
+                    longest = longest.max(d);
+                }
             }
         }
-        let cell = longest.max(4.0 * r);
-        let inv = 1.0 / cell;
-        let grid = &mut self.grid;
-        grid.cell = cell;
-        grid.pairs.clear();
+        self.cell = longest.max(4.0 * r);
+        let inv = 1.0 / self.cell;
+        let grow = Vec3A::splat(2.0 * r);
+        self.pairs.clear();
         let mut count = 0usize;
-        // Count first to size the table, then fill.
         for pass in 0..2 {
-            for (ti, t) in self.triangles.iter().enumerate() {
-                let mut lo = Vec3A::splat(f32::INFINITY);
-                let mut hi = Vec3A::splat(f32::NEG_INFINITY);
-                for &k in t {
-                    for p in [self.start[k as usize], self.end[k as usize]] {
-                        lo = lo.min(p);
-                        hi = hi.max(p);
-                    }
-                }
+            for (ti, t) in triangles.iter().enumerate() {
+                let [a, b, c] = t.map(|k| x[k as usize]);
+                let (lo, hi) = (a.min(b).min(c) - grow, a.max(b).max(c) + grow);
                 if !(lo.is_finite() && hi.is_finite()) {
                     continue;
                 }
-                let (c0, c1) = (
-                    cell_of(lo - Vec3A::splat(r), inv),
-                    cell_of(hi + Vec3A::splat(r), inv),
-                );
-                // A triangle swept across more than 64 cells a side moved too far to matter.
-                if (0..3).any(|a| c1[a] - c0[a] > 64) {
+                let (c0, c1) = (cell_of(lo, inv), cell_of(hi, inv));
+                if (0..3).any(|k| c1[k] - c0[k] > 8) {
                     continue;
                 }
-                for z in c0[2]..=c1[2] {
-                    for y in c0[1]..=c1[1] {
-                        for x in c0[0]..=c1[0] {
+                for cz in c0[2]..=c1[2] {
+                    for cy in c0[1]..=c1[1] {
+                        for cx in c0[0]..=c1[0] {
                             if pass == 0 {
                                 count += 1;
                             } else {
-                                grid.pairs.push((bucket([x, y, z], grid.mask), ti as u32));
+                                self.pairs
+                                    .push((bucket([cx, cy, cz], self.mask), ti as u32));
                             }
                         }
                     }
                 }
             }
             if pass == 0 {
-                let buckets = (2 * count).next_power_of_two().max(64);
-                grid.mask = buckets as u32 - 1;
+                self.mask = (2 * count).next_power_of_two().max(64) as u32 - 1;
             }
         }
-        grid.pairs.sort_unstable();
-        grid.pairs.dedup();
-        let buckets = grid.mask as usize + 1;
-        grid.start.clear();
-        grid.start.resize(buckets + 1, 0);
-        for &(b, _) in &grid.pairs {
-            grid.start[b as usize + 1] += 1;
+        self.pairs.sort_unstable();
+        self.pairs.dedup();
+        let buckets = self.mask as usize + 1;
+        self.start.clear();
+        self.start.resize(buckets + 1, 0);
+        for &(b, _) in &self.pairs {
+            self.start[b as usize + 1] += 1;
         }
         for b in 0..buckets {
-            grid.start[b + 1] += grid.start[b];
+            self.start[b + 1] += self.start[b];
         }
-        grid.entries.clear();
-        grid.entries.extend(grid.pairs.iter().map(|&(_, t)| t));
+        self.entries.clear();
+        self.entries.extend(self.pairs.iter().map(|&(_, t)| t));
     }
 
-    /// Keeps the fluid's particles `x` (at `x_prev` when the substep began, a fraction
-    /// `t_prev` through the step; now at `t`) off the triangles, each of mass `mass`, radius
-    /// `r`, over a substep of length `h` (see the module docs).
+    /// Separates the fluid particles `xf` (at `xf_prev` when the substep began) from the
+    /// cloth's triangles (particles `x`, at `x_prev`, inverse masses `w`), both ways (see the
+    /// module docs).
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn project(
+    fn project(
         &mut self,
+        xf: &mut [Vec3A],
+        xf_prev: &[Vec3A],
         x: &mut [Vec3A],
         x_prev: &[Vec3A],
-        t_prev: f32,
-        t: f32,
-        r: f32,
-        mass: f32,
-        h: f32,
+        w: &[f32],
+        triangles: &[[u32; 3]],
     ) {
-        if self.triangles.is_empty() || self.grid.start.is_empty() {
+        if self.start.is_empty() || self.mass.is_nan() || self.mass <= 0.0 {
             return;
         }
-        let inv = 1.0 / self.grid.cell;
-        for (xi, &pi) in x.iter_mut().zip(x_prev) {
-            let b = bucket(cell_of(*xi, inv), self.grid.mask) as usize;
-            let range = self.grid.start[b] as usize..self.grid.start[b + 1] as usize;
-            for &ti in &self.grid.entries[range] {
-                let [a, b, c] = self.triangles[ti as usize].map(|k| k as usize);
-                let at = |k: usize, s: f32| self.start[k].lerp(self.end[k], s);
-                let (p0, p1, p2) = (at(a, t), at(b, t), at(c, t));
+        let (r, wf) = (self.radius, 1.0 / self.mass);
+        let inv = 1.0 / self.cell;
+        for (pf, &pf_prev) in xf.iter_mut().zip(xf_prev) {
+            let cell = bucket(cell_of(*pf, inv), self.mask) as usize;
+            let Some(range) = self.start.get(cell..cell + 2) else {
+                continue;
+            };
+            for &ti in &self.entries[range[0] as usize..range[1] as usize] {
+                let [a, b, c] = triangles[ti as usize].map(|k| k as usize);
+                let (p0, p1, p2) = (x[a], x[b], x[c]);
                 let normal = (p1 - p0).cross(p2 - p0);
                 let area2 = normal.length();
                 if area2.is_nan() || area2 <= 1e-12 {
                     continue;
                 }
                 let n = normal / area2;
-                let d = n.dot(*xi - p0);
+                let d = n.dot(*pf - p0);
                 // The side the particle was on when the substep began.
-                let q0 = at(a, t_prev);
-                let n_prev = (at(b, t_prev) - q0).cross(at(c, t_prev) - q0);
-                let side = if n_prev.dot(pi - q0) >= 0.0 {
+                let q0 = x_prev[a];
+                let n_prev = (x_prev[b] - q0).cross(x_prev[c] - q0);
+                let side = if n_prev.dot(pf_prev - q0) >= 0.0 {
                     1.0
                 } else {
                     -1.0
@@ -217,38 +171,67 @@ impl ClothBoundary {
                 if depth <= 0.0 {
                     continue;
                 }
-                // Only over the triangle: its projection onto the plane inside it.
-                let (u, v, w) = barycentric(*xi - n * d, p0, p1, p2, normal, area2);
-                if u < 0.0 || v < 0.0 || w < 0.0 {
+                // Only over the triangle: the projection onto the plane inside it.
+                let q = *pf - n * d;
+                let inv_area = 1.0 / (area2 * area2);
+                let u = (p1 - q).cross(p2 - q).dot(normal) * inv_area;
+                let v = (p2 - q).cross(p0 - q).dot(normal) * inv_area;
+                let bw = 1.0 - u - v;
+                if u < 0.0 || v < 0.0 || bw < 0.0 {
                     continue;
                 }
                 if side * d < 0.0 {
                     self.crossings += 1;
                 }
-                let dx = n * (side * depth);
-                *xi += dx;
-                let impulse = dx * (mass / h);
-                self.impulses[a] -= impulse * u;
-                self.impulses[b] -= impulse * v;
-                self.impulses[c] -= impulse * w;
+                let weights = wf + u * u * w[a] + v * v * w[b] + bw * bw * w[c];
+                let dl = depth / weights;
+                let push = n * (side * dl);
+                *pf += push * wf;
+                x[a] -= push * (u * w[a]);
+                x[b] -= push * (v * w[b]);
+                x[c] -= push * (bw * w[c]);
+                self.impulse -= push / self.h;
             }
         }
     }
 }
 
-/// Barycentric coordinates of `q` (in the plane of `p0 p1 p2`, whose unnormalised normal is
-/// `normal` of length `area2`).
-#[inline(always)]
-fn barycentric(
-    q: Vec3A,
-    p0: Vec3A,
-    p1: Vec3A,
-    p2: Vec3A,
-    normal: Vec3A,
-    area2: f32,
-) -> (f32, f32, f32) {
-    let inv = 1.0 / (area2 * area2);
-    let u = (p1 - q).cross(p2 - q).dot(normal) * inv;
-    let v = (p2 - q).cross(p0 - q).dot(normal) * inv;
-    (u, v, 1.0 - u - v)
+/// The fluid as the cloth's step sees it (`SubstepCoupling`).
+pub(crate) struct FluidInCloth<'a> {
+    pub(crate) fluid: &'a mut FluidSolver,
+    /// Density sweeps per cloth iteration.
+    pub(crate) sweeps: u32,
+    /// The current substep, and how many the cloth takes.
+    pub(crate) substep: u32,
+    pub(crate) substeps: u32,
+}
+
+impl SubstepCoupling for FluidInCloth<'_> {
+    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32) {
+        self.fluid.predict(h);
+        let (radius, mass) = (
+            self.fluid.settings().particle_radius,
+            self.fluid.particle_mass(),
+        );
+        let (_, _, contacts) = self.fluid.contact_parts();
+        contacts.radius = radius;
+        contacts.mass = mass;
+        contacts.h = h;
+        contacts.sort(x, triangles);
+    }
+
+    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]) {
+        let t = (self.substep + 1) as f32 / self.substeps as f32;
+        for _ in 0..self.sweeps {
+            self.fluid.project_density();
+        }
+        self.fluid.project_colliders(t);
+        let (xf, xf_prev, contacts) = self.fluid.contact_parts();
+        contacts.project(xf, xf_prev, x, x_prev, w, triangles);
+    }
+
+    fn end_substep(&mut self, h: f32) {
+        self.fluid.end_substep(h);
+        self.substep += 1;
+    }
 }

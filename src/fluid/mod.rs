@@ -1,7 +1,7 @@
 //! Water: Position Based Fluids (Macklin and Müller 2013) as plain data, free of ECS types.
 //! [`FluidSolver`] steps one body of particles (`solver.rs`) with the SPH kernels of
-//! `kernels.rs` and neighbour lists from a uniform grid (`neighbours.rs`), kept off cloths
-//! both ways by [`ClothBoundary`] (`cloth_coupling.rs`).
+//! `kernels.rs` and neighbour lists from a uniform grid (`neighbours.rs`), stepped with a
+//! cloth in its substeps, both ways ([`FluidSolver::step_with_cloth`], `cloth_coupling.rs`).
 
 pub mod cloth_coupling;
 pub(crate) mod kernels;
@@ -9,6 +9,6 @@ pub(crate) mod neighbours;
 pub mod settings;
 pub mod solver;
 
-pub use cloth_coupling::ClothBoundary;
+pub use cloth_coupling::ClothContacts;
 pub use settings::FluidSettings;
 pub use solver::{DensityError, FluidSolver};

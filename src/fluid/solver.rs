@@ -27,18 +27,22 @@
 //!    (`v_i += c sum_j 2 m / (rho_i + rho_j) (v_j - v_i) W_ij`, symmetric in `i` and `j`,
 //!    so momentum is kept); `x = x*`.
 //!
+//! [`FluidSolver::step_with_cloth`] runs the same substep inside a cloth's substeps instead
+//! (`cloth_coupling.rs`), with the cloth's substep length and its contacts with the cloth.
+//!
 //! A particle whose state is not finite after a step (a collider that moved by a huge
 //! amount, say) is put back where the step began, at rest, and counted
 //! ([`FluidSolver::divergences`]).
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::cloth_coupling::ClothBoundary;
+use super::cloth_coupling::{ClothContacts, FluidInCloth};
 use super::kernels::Kernels;
 use super::neighbours::Neighbours;
 use super::settings::FluidSettings;
+use crate::cloth::{ClothSolver, OneThread, SolverSettings};
 use crate::collide::SolverCollider;
-use crate::error::FluidError;
+use crate::error::{ClothError, FluidError};
 
 /// The artificial pressure's reference distance, as a fraction of `h`.
 const CORRECTION_AT: f32 = 0.2;
@@ -82,6 +86,10 @@ pub struct FluidSolver {
     scratch_scalars: Vec<f32>,
     neighbours: Neighbours,
     colliders: Vec<SolverCollider>,
+    /// The contacts with a cloth (`cloth_coupling.rs`), their scratch memory kept.
+    cloth_contacts: ClothContacts,
+    /// The acceleration of the current step.
+    gravity: Vec3A,
     divergences: usize,
 }
 
@@ -106,6 +114,8 @@ impl FluidSolver {
             scratch_scalars: Vec::new(),
             neighbours: Neighbours::default(),
             colliders: Vec::new(),
+            cloth_contacts: ClothContacts::default(),
+            gravity: Vec3A::ZERO,
             divergences: 0,
         };
         solver.derive_constants();
@@ -227,6 +237,16 @@ impl FluidSolver {
         Ok(())
     }
 
+    /// Positions, positions at the substep's start, and the contacts' scratch, for the
+    /// coupling.
+    pub(crate) fn contact_parts(&mut self) -> (&mut [Vec3A], &[Vec3A], &mut ClothContacts) {
+        (
+            &mut self.positions,
+            &self.previous,
+            &mut self.cloth_contacts,
+        )
+    }
+
     /// The particles' positions, metres.
     pub fn positions(&self) -> &[Vec3A] {
         &self.positions
@@ -292,66 +312,110 @@ impl FluidSolver {
                 .sum::<f32>()
     }
 
-    /// Advances the fluid by `dt` seconds under the acceleration `gravity`, kept off the
-    /// cloths `cloths` (each tracked after its own step; see [`ClothBoundary`]), whose
-    /// impulses are kept in them for [`ClothBoundary::give_impulses`].
-    pub fn step(&mut self, gravity: Vec3, dt: f32, cloths: &mut [ClothBoundary]) {
-        if self.positions.is_empty() || !(dt > 0.0 && dt.is_finite()) || !gravity.is_finite() {
+    /// Advances the fluid by `dt` seconds under the acceleration `gravity`, alone (kept out
+    /// of its colliders; [`FluidSolver::step_with_cloth`] steps it with a cloth).
+    pub fn step(&mut self, gravity: Vec3, dt: f32) {
+        if !self.begin_step(gravity, dt) {
             return;
         }
-        for cloth in cloths.iter_mut() {
-            cloth.begin_step(self.settings.particle_radius);
-        }
-        let g = Vec3A::from(gravity);
         let substeps = self.settings.substeps.max(1);
         let h = dt / substeps as f32;
-        self.build_neighbours(g, dt);
         for s in 0..substeps {
-            let t_start = s as f32 / substeps as f32;
+            self.predict(h);
             let t_end = (s + 1) as f32 / substeps as f32;
-            for ((x, x_prev), v) in self
-                .positions
-                .iter_mut()
-                .zip(self.previous.iter_mut())
-                .zip(self.velocities.iter_mut())
-            {
-                *x_prev = *x;
-                *v += g * h;
-                *x += *v * h;
-            }
             for _ in 0..self.settings.iterations.max(1) {
                 self.project_density();
                 self.project_colliders(t_end);
-                for cloth in cloths.iter_mut() {
-                    cloth.project(
-                        &mut self.positions,
-                        &self.previous,
-                        t_start,
-                        t_end,
-                        self.settings.particle_radius,
-                        self.mass,
-                        h,
-                    );
-                }
             }
-            let inv_h = 1.0 / h;
-            for ((v, &x), &x_prev) in self
-                .velocities
-                .iter_mut()
-                .zip(&self.positions)
-                .zip(&self.previous)
-            {
-                *v = (x - x_prev) * inv_h;
-            }
-            self.update_densities();
-            if self.settings.vorticity > 0.0 {
-                self.confine_vorticity(h);
-            }
-            if self.settings.viscosity > 0.0 {
-                self.apply_viscosity();
-            }
+            self.end_substep(h);
         }
         self.recover_non_finite();
+    }
+
+    /// Advances the fluid and `cloth` together by `dt` seconds under `gravity`, in the
+    /// cloth's substeps (`cloth_settings`, at a fixed count): in each of the cloth's
+    /// iterations the fluid's density constraint (as many sweeps as give the fluid about
+    /// its own budget of `substeps x iterations` sweeps per step), its colliders, and its
+    /// contacts with the cloth's triangles, both ways (`cloth_coupling.rs`), before the
+    /// cloth's own constraints. A bad setting or `dt` is refused by the cloth, and nothing
+    /// moves.
+    pub fn step_with_cloth(
+        &mut self,
+        cloth: &mut ClothSolver,
+        cloth_settings: &SolverSettings,
+        gravity: Vec3,
+        dt: f32,
+    ) -> Result<(), ClothError> {
+        cloth_settings.validate()?;
+        if !self.begin_step(gravity, dt) {
+            return cloth.step(cloth_settings, gravity, dt);
+        }
+        let budget = self.settings.substeps.max(1) * self.settings.iterations.max(1);
+        let cloth_sweeps = cloth_settings.substeps.max(1) * cloth_settings.iterations.max(1);
+        let sweeps = budget.div_ceil(cloth_sweeps).max(1);
+        let mut coupling = FluidInCloth {
+            fluid: self,
+            sweeps,
+            substep: 0,
+            substeps: cloth_settings.substeps.max(1),
+        };
+        coupling.fluid.cloth_contacts.begin_step();
+        let result =
+            cloth.step_coupled(cloth_settings, gravity, dt, &OneThread, Some(&mut coupling));
+        self.recover_non_finite();
+        result
+    }
+
+    /// The contacts with a cloth of the last [`FluidSolver::step_with_cloth`].
+    pub fn cloth_contacts(&self) -> &ClothContacts {
+        &self.cloth_contacts
+    }
+
+    /// Starts a step (neighbours, scratch); false if there is nothing to step or the input
+    /// is not finite.
+    fn begin_step(&mut self, gravity: Vec3, dt: f32) -> bool {
+        if self.positions.is_empty() || !(dt > 0.0 && dt.is_finite()) || !gravity.is_finite() {
+            return false;
+        }
+        self.gravity = Vec3A::from(gravity);
+        self.build_neighbours(self.gravity, dt);
+        true
+    }
+
+    /// A substep's prediction: `v += h g`, `x += h v`.
+    pub(crate) fn predict(&mut self, h: f32) {
+        let g = self.gravity;
+        for ((x, x_prev), v) in self
+            .positions
+            .iter_mut()
+            .zip(self.previous.iter_mut())
+            .zip(self.velocities.iter_mut())
+        {
+            *x_prev = *x;
+            *v += g * h;
+            *x += *v * h;
+        }
+    }
+
+    /// A substep's end: velocities from the positions, densities, vorticity confinement
+    /// and viscosity.
+    pub(crate) fn end_substep(&mut self, h: f32) {
+        let inv_h = 1.0 / h;
+        for ((v, &x), &x_prev) in self
+            .velocities
+            .iter_mut()
+            .zip(&self.positions)
+            .zip(&self.previous)
+        {
+            *v = (x - x_prev) * inv_h;
+        }
+        self.update_densities();
+        if self.settings.vorticity > 0.0 {
+            self.confine_vorticity(h);
+        }
+        if self.settings.viscosity > 0.0 {
+            self.apply_viscosity();
+        }
     }
 
     /// The neighbour lists for this step (see the module docs).
@@ -385,7 +449,7 @@ impl FluidSolver {
     }
 
     /// One Jacobi sweep of the density constraint.
-    fn project_density(&mut self) {
+    pub(crate) fn project_density(&mut self) {
         self.update_densities();
         let k = self.kernels;
         let rho0 = self.settings.rest_density;
@@ -430,7 +494,7 @@ impl FluidSolver {
 
     /// Moves every particle closer than its radius to a collider (posed a fraction `t`
     /// through the step) out to that distance.
-    fn project_colliders(&mut self, t: f32) {
+    pub(crate) fn project_colliders(&mut self, t: f32) {
         let r = self.settings.particle_radius;
         for c in &self.colliders {
             let pose = c.pose_at(t);
@@ -558,8 +622,8 @@ mod tests {
         ));
         assert_eq!(fluid.add_box(Vec3::ZERO, Vec3::splat(0.1)).unwrap(), 125);
         let before = fluid.positions().to_vec();
-        fluid.step(Vec3::NAN, 1.0 / 60.0, &mut []);
-        fluid.step(Vec3::ZERO, f32::INFINITY, &mut []);
+        fluid.step(Vec3::NAN, 1.0 / 60.0);
+        fluid.step(Vec3::ZERO, f32::INFINITY);
         assert_eq!(fluid.positions(), &before[..]);
     }
 
@@ -586,7 +650,7 @@ mod tests {
         let mass = fluid.particle_mass() * fluid.len() as f32;
         let start = fluid.momentum();
         for step in 1..=30 {
-            fluid.step(g, 1.0 / 60.0, &mut []);
+            fluid.step(g, 1.0 / 60.0);
             let expected = start + g * mass * step as f32 / 60.0;
             // f32 round-off: positions of a metre change by millimetres per substep.
             let error = (fluid.momentum() - expected).length();

@@ -34,6 +34,7 @@ pub use diagnostics::{Divergence, StrainStats};
 use halves::Halves;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
+pub(crate) use step::SubstepCoupling;
 use timings::Laps;
 pub use timings::StepTimings;
 
@@ -141,10 +142,6 @@ pub struct ClothSolver {
     particle_wind: Vec<Vec3A>,
     /// The air's acceleration of each particle over the current step.
     air_acceleration: Vec<Vec3A>,
-    /// Accelerations from outside the cloth for its next step only (a fluid's push), added
-    /// to the air's; `pushed` says whether there are any.
-    pushes: Vec<Vec3A>,
-    pushed: bool,
     /// Wall time of the last step's parts.
     timings: StepTimings,
     /// The carried share of the followed frame's motion over the coming step
@@ -240,8 +237,6 @@ impl ClothSolver {
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
-            pushes: vec![Vec3A::ZERO; n],
-            pushed: false,
             timings: StepTimings::default(),
             carried: None,
             relative_wind: vec![Vec3A::ZERO; n],
@@ -472,28 +467,6 @@ impl ClothSolver {
         &mut self.state
     }
 
-    /// Adds `impulse` times each particle's inverse mass to its velocity over the next step,
-    /// spread evenly over its substeps as the air's force is (a fluid's push: given at once,
-    /// a heavy fluid's push on a light cloth outruns its constraints). Impulses on pinned
-    /// particles are dropped.
-    pub(crate) fn push_over_next_step(&mut self, impulses: &[Vec3A], dt: f32) {
-        if impulses.len() != self.pushes.len() || dt.is_nan() || dt <= 0.0 {
-            return;
-        }
-        for ((push, &j), &w) in self
-            .pushes
-            .iter_mut()
-            .zip(impulses)
-            .zip(&self.state.inverse_masses)
-        {
-            let a = j * (w / dt);
-            if a.is_finite() {
-                *push += a;
-                self.pushed = true;
-            }
-        }
-    }
-
     /// The pins.
     pub fn pins(&self) -> &[Pin] {
         &self.pins
@@ -706,6 +679,20 @@ impl ClothSolver {
         dt: f32,
         join: &dyn Join,
     ) -> Result<(), ClothError> {
+        self.step_coupled(settings, acceleration, dt, join, None)
+    }
+
+    /// [`ClothSolver::step_with`], with `coupling` stepped inside the cloth's substeps (see
+    /// [`SubstepCoupling`]); with a coupling the substep count is fixed
+    /// ([`SolverSettings::adaptive`] would redo steps the coupling has taken).
+    pub(crate) fn step_coupled(
+        &mut self,
+        settings: &SolverSettings,
+        acceleration: Vec3,
+        dt: f32,
+        join: &dyn Join,
+        coupling: Option<&mut dyn SubstepCoupling>,
+    ) -> Result<(), ClothError> {
         settings.validate()?;
         if let Some(&value) = acceleration.to_array().iter().find(|a| !a.is_finite()) {
             return Err(ClothError::InvalidSetting {
@@ -763,13 +750,6 @@ impl ClothSolver {
             );
             self.timings.air = laps.lap();
         }
-        let air_active = settings.air.is_some_and(|air| air.is_active());
-        if self.pushed {
-            for (air, push) in self.air_acceleration.iter_mut().zip(&mut self.pushes) {
-                *air = if air_active { *air + *push } else { *push };
-                *push = Vec3A::ZERO;
-            }
-        }
         self.self_contacts = 0;
         if settings.self_collision {
             self.find_self_contacts(acceleration, dt);
@@ -777,16 +757,13 @@ impl ClothSolver {
         }
         match settings
             .adaptive
-            .filter(|_| settings.method != SolverMethod::MassSpring)
+            .filter(|_| settings.method != SolverMethod::MassSpring && coupling.is_none())
         {
             Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt, join),
-            None => self.step_substeps(settings, acceleration, dt, join),
+            None => self.step_substeps(settings, acceleration, dt, join, coupling),
         }
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
-        }
-        if std::mem::take(&mut self.pushed) && !air_active {
-            self.air_acceleration.fill(Vec3A::ZERO);
         }
         Ok(())
     }
@@ -880,7 +857,7 @@ impl ClothSolver {
         self.adaptive_backup.clone_from(&self.state);
         let mut run = 0;
         loop {
-            self.step_substeps(&chosen, acceleration, dt, join);
+            self.step_substeps(&chosen, acceleration, dt, join, None);
             run += chosen.substeps;
             let strain = self.strain().max;
             let next = budget.next(chosen.substeps, strain, &mut self.adaptive_calm);

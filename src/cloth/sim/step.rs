@@ -115,6 +115,7 @@ impl ClothSolver {
         acceleration: Vec3,
         dt: f32,
         join: &dyn Join,
+        mut coupling: Option<&mut dyn SubstepCoupling>,
     ) {
         let method = settings.method;
         let hybrid = method.is_hybrid();
@@ -178,7 +179,9 @@ impl ClothSolver {
         let friction_step = (!mass_spring).then_some(h);
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
-        let air = (settings.air.is_some_and(|air| air.is_active()) || self.pushed)
+        let air = settings
+            .air
+            .is_some_and(|air| air.is_active())
             .then_some(&self.air_acceleration);
         let bounce_threshold = 2.0 * a.length() * h;
 
@@ -288,6 +291,9 @@ impl ClothSolver {
             }
 
             t.predict += laps.lap();
+            if let Some(coupling) = coupling.as_deref_mut() {
+                coupling.begin_substep(x, &self.model.triangles, h);
+            }
 
             // 2. Project.
             if let Some(sc) = self_collision.as_deref_mut() {
@@ -351,6 +357,9 @@ impl ClothSolver {
                             ContactPass::Iteration { friction_step },
                         );
                         t.contacts += laps.lap();
+                    }
+                    if let Some(coupling) = coupling.as_deref_mut() {
+                        coupling.iterate(x, x_prev, w, &self.model.triangles);
                     }
                     if let Some(sc) = self_collision.as_deref() {
                         let touching = sc.project(x, x_prev, w, settings.friction, None);
@@ -526,9 +535,27 @@ impl ClothSolver {
                 middle,
             );
             t.predict += laps.lap();
+            if let Some(coupling) = coupling.as_deref_mut() {
+                coupling.end_substep(h);
+            }
         }
         self.timings.add(&t);
     }
+}
+
+/// Something stepped inside a cloth's substeps, in the same iterations as the cloth's
+/// constraints (a fluid, `fluid/cloth_coupling.rs`): it predicts when a substep begins,
+/// projects its own constraints and its contacts with the cloth's particles in each
+/// iteration (after the colliders, before the cloth's own constraints, which then carry its
+/// pushes on), and updates its velocities when the substep ends, over the same `h`.
+pub(crate) trait SubstepCoupling {
+    /// A substep of length `h` begins; `x` are the cloth's predicted positions.
+    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32);
+    /// One iteration: the cloth's positions `x` (at `x_prev` when the substep began) and
+    /// inverse masses `w`, to be moved by the contacts.
+    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]);
+    /// The substep ends.
+    fn end_substep(&mut self, h: f32);
 }
 
 /// A run of particles: their positions, previous positions, velocities and inverse masses,
