@@ -22,6 +22,7 @@ use bevy::prelude::FixedPostUpdate;
 use cloth::plugin::ClothPlugin;
 use cloth::wind_plugin::WindPlugin;
 use collide::plugin::ColliderPlugin;
+use fluid::plugin::FluidPlugin;
 use schedule::DrapeSchedulePlugin;
 use skeleton::plugin::SkeletonPlugin;
 
@@ -47,6 +48,8 @@ pub mod prelude {
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
     pub use crate::files::{BoneCollidersFile, ClothSettingsFile, FileAsset, FromFile};
+    pub use crate::fluid::plugin::{Fluid, FluidPlugin, FluidSimulation, FluidSource};
+    pub use crate::fluid::{FluidSettings, FluidSolver};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     #[cfg(feature = "animation")]
@@ -99,7 +102,8 @@ impl PluginGroup for DrapePlugins {
             .add(SkeletonPlugin)
             .add(ColliderPlugin)
             .add(WindPlugin)
-            .add(ClothPlugin);
+            .add(ClothPlugin)
+            .add(FluidPlugin);
         #[cfg(feature = "avian")]
         let group = group.add(collide::avian::AvianColliderPlugin);
         #[cfg(feature = "animation")]

@@ -6,6 +6,7 @@ use bevy::prelude::{Mesh, Meshable, Sphere};
 use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverSettings, weld};
 use bevy_drape::fluid::{FluidSettings, FluidSolver};
 use bevy_drape::mesh::mesh_triangles;
+use drape_scenes::water::particles_below_sheet;
 
 const DT: f32 = 1.0 / 60.0;
 const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
@@ -149,7 +150,11 @@ fn a_sheet_held_at_its_corners_carries_the_waters_weight() {
             .map(|p| p.y)
             .fold(f32::MAX, f32::min)
     };
-    let below = below_sheet(&cloth, fluid.positions());
+    let below = particles_below_sheet(
+        &cloth.state().positions,
+        &cloth.model().triangles,
+        fluid.positions(),
+    );
     eprintln!(
         "{} particles, weight {weight:.3} N, carried {carried:.3} N; lowest point {:.3} m \
          (dry {:.3} m); {below} particles below the sheet; largest strain {:.4}",
@@ -165,30 +170,6 @@ fn a_sheet_held_at_its_corners_carries_the_waters_weight() {
     assert!(lowest(&cloth) < lowest(&dry) - 0.005);
     assert_eq!(below, 0);
     assert!(cloth.is_finite() && fluid.positions().iter().all(|p| p.is_finite()));
-}
-
-/// Fluid particles whose vertical line meets the sheet (a height field here) and that are
-/// below it.
-fn below_sheet(cloth: &ClothSolver, fluid: &[Vec3A]) -> usize {
-    let x = &cloth.state().positions;
-    fluid
-        .iter()
-        .filter(|p| {
-            cloth.model().triangles.iter().any(|t| {
-                let [a, b, c] = t.map(|k| x[k as usize]);
-                let flat = |v: Vec3A| Vec2::new(v.x, v.z);
-                let (pa, pb, pc, pp) = (flat(a), flat(b), flat(c), flat(**p));
-                let area = (pb - pa).perp_dot(pc - pa);
-                if area.abs() < 1e-12 {
-                    return false;
-                }
-                let u = (pb - pp).perp_dot(pc - pp) / area;
-                let v = (pc - pp).perp_dot(pa - pp) / area;
-                let w = 1.0 - u - v;
-                u >= 0.0 && v >= 0.0 && w >= 0.0 && p.y < u * a.y + v * b.y + w * c.y
-            })
-        })
-        .count()
 }
 
 /// Whether `p` is inside the closed triangle mesh (a ray crosses it an odd number of times;

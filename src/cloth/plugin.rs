@@ -25,6 +25,7 @@ use crate::collide::{
     ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider, Teleport,
 };
 use crate::error::ClothError;
+use crate::fluid::plugin::FluidSimulation;
 use crate::mesh::mesh_triangles;
 use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
 
@@ -543,7 +544,13 @@ fn build_cloths(
 /// stepped exactly as on one thread, so the result does not depend on the thread count).
 #[allow(clippy::type_complexity)]
 fn step_cloths(
-    mut cloths: Query<(Entity, &Cloth, &mut ClothSimulation, Option<&ClothSettings>)>,
+    mut cloths: Query<(
+        Entity,
+        &Cloth,
+        &mut ClothSimulation,
+        Option<&ClothSettings>,
+        Option<&mut FluidSimulation>,
+    )>,
     defaults: Res<DefaultClothSettings>,
     drape: Res<DrapeSettings>,
     time: Res<Time>,
@@ -578,14 +585,25 @@ fn step_cloths(
         Some(pool)
             if count == 1
                 && allowed > 1
-                && cloths.iter_mut().all(|(_, _, mut simulation, settings)| {
-                    let settings = settings.unwrap_or(context.defaults);
-                    simulation.sim.splits_in_two(&settings.solver)
-                }) =>
+                && cloths
+                    .iter_mut()
+                    .all(|(_, _, mut simulation, settings, _)| {
+                        let settings = settings.unwrap_or(context.defaults);
+                        simulation.sim.splits_in_two(&settings.solver)
+                    }) =>
         {
-            for (entity, cloth, mut simulation, settings) in &mut cloths {
+            for (entity, cloth, mut simulation, settings, mut fluid) in &mut cloths {
+                let fluid = fluid.as_deref_mut();
                 let stepped = with_helper(pool, |join| {
-                    step_cloth(entity, cloth, &mut simulation, settings, &context, join)
+                    step_cloth(
+                        entity,
+                        cloth,
+                        &mut simulation,
+                        settings,
+                        fluid,
+                        &context,
+                        join,
+                    )
                 });
                 if let Some(d) = stepped {
                     diverged.write(d);
@@ -599,7 +617,7 @@ fn step_cloths(
             // thread costs no more than the cloth it would have stepped. Each cloth's step is
             // the same whichever thread runs it; the messages go out in the query's order.
             let mut all: Vec<_> = cloths.iter_mut().enumerate().collect();
-            all.sort_by_key(|(_, (_, _, simulation, _))| {
+            all.sort_by_key(|(_, (_, _, simulation, _, _))| {
                 std::cmp::Reverse(simulation.sim.last_timings().total())
             });
             let queue = std::sync::Mutex::new(all.iter_mut().map(|(k, item)| (*k, item)));
@@ -610,11 +628,18 @@ fn step_cloths(
                         let mut diverged = Vec::new();
                         loop {
                             let next = queue.lock().map(|mut q| q.next());
-                            let Ok(Some((k, (entity, cloth, simulation, settings)))) = next else {
+                            let Ok(Some((k, (entity, cloth, simulation, settings, fluid)))) = next
+                            else {
                                 break;
                             };
                             if let Some(d) = step_cloth(
-                                *entity, cloth, simulation, *settings, context, &OneThread,
+                                *entity,
+                                cloth,
+                                simulation,
+                                *settings,
+                                fluid.as_deref_mut(),
+                                context,
+                                &OneThread,
                             ) {
                                 diverged.push((k, d));
                             }
@@ -628,12 +653,13 @@ fn step_cloths(
             diverged.write_batch(results.into_iter().map(|(_, d)| d));
         }
         _ => {
-            for (entity, cloth, mut simulation, settings) in &mut cloths {
+            for (entity, cloth, mut simulation, settings, mut fluid) in &mut cloths {
                 if let Some(d) = step_cloth(
                     entity,
                     cloth,
                     &mut simulation,
                     settings,
+                    fluid.as_deref_mut(),
                     &context,
                     &OneThread,
                 ) {
@@ -644,7 +670,7 @@ fn step_cloths(
     }
     if let Some(mut timings) = timings {
         let mut parts = StepTimings::default();
-        for (_, _, simulation, _) in &cloths {
+        for (_, _, simulation, _, _) in &cloths {
             parts.add(simulation.sim.last_timings());
         }
         timings.cloth_parts = parts;
@@ -668,6 +694,7 @@ fn step_cloth(
     cloth: &Cloth,
     simulation: &mut ClothSimulation,
     settings: Option<&ClothSettings>,
+    fluid: Option<&mut FluidSimulation>,
     context: &StepContext,
     join: &dyn Join,
 ) -> Option<ClothDiverged> {
@@ -781,7 +808,20 @@ fn step_cloth(
     {
         sim.set_wind(wind, context.elapsed);
     }
-    if let Err(err) = sim.step_with(&settings.solver, context.drape.gravity, dt, join) {
+    // Water in the cloth steps inside the cloth's substeps, kept out of the same colliders.
+    let stepped = match fluid {
+        Some(fluid) => {
+            if let Err(err) = fluid.solver.set_colliders(&simulation.colliders) {
+                warn!("the fluid in cloth {entity}: its colliders are left out: {err}");
+                let _ = fluid.solver.set_colliders(&[]);
+            }
+            fluid
+                .solver
+                .step_with_cloth(sim, &settings.solver, context.drape.gravity, dt)
+        }
+        None => sim.step_with(&settings.solver, context.drape.gravity, dt, join),
+    };
+    if let Err(err) = stepped {
         if !simulation.warned_step_input {
             warn!("cloth {entity} is not stepped: {err}");
             simulation.warned_step_input = true;

@@ -6,6 +6,7 @@
 pub mod cloth_coupling;
 pub(crate) mod kernels;
 pub(crate) mod neighbours;
+pub mod plugin;
 pub mod settings;
 pub mod solver;
 

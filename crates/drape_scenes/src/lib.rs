@@ -13,6 +13,7 @@
 //! - [`gltf_export`]: the humanoid, a body skinned to it and its clips as a `.glb` file.
 //! - [`poncho`]: S3, the poncho on the walking character, as a plugin ([`poncho::PonchoScenePlugin`])
 //!   and as a headless run with its figures ([`poncho::run_headless`]).
+//! - [`water`]: measures of water in cloth.
 
 pub mod gltf_character;
 pub mod gltf_export;
@@ -20,3 +21,4 @@ pub mod poncho;
 pub mod scan;
 pub mod scenes;
 pub mod study;
+pub mod water;
