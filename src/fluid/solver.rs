@@ -346,7 +346,8 @@ impl FluidSolver {
         gravity: Vec3,
         dt: f32,
     ) -> Result<(), ClothError> {
-        cloth_settings.validate()?;
+        // The cloth's step checks its settings and `dt` before anything moves; building the
+        // neighbours first changes no particle.
         if !self.begin_step(gravity, dt) {
             return cloth.step(cloth_settings, gravity, dt);
         }
