@@ -16,23 +16,7 @@ use bevy::prelude::*;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, OrbitCamera, cloth_material, spawn_stage};
-
-/// The hammock's side, metres, and its vertices along a side.
-const SIDE: f32 = 0.8;
-const VERTICES: u32 = 21;
-/// The posts stand this far in from the hammock's corners (a fraction of the half side),
-/// so that it hangs as a bowl.
-const SPAN: f32 = 0.7;
-/// The posts' height.
-const HEIGHT: f32 = 0.9;
-/// The jet.
-const JET: FluidSource = FluidSource::Jet {
-    origin: Vec3::new(0.0, 1.5, 0.0),
-    velocity: Vec3::new(0.0, -1.0, 0.0),
-    radius: 0.04,
-    rate: 200.0,
-    max_particles: 600,
-};
+use drape_scenes::water::Pour;
 
 fn main() {
     let mut app = App::new();
@@ -67,60 +51,46 @@ fn setup(
         Vec3::new(0.0, 0.6, 0.0),
         2.4,
     );
-    let grid = GridDesc::square(SIDE, VERTICES, Vec3::new(-SIDE / 2.0, 0.0, -SIDE / 2.0));
+    // The `pour` scene of the scenes runner: a sheet hung by its corners from four posts
+    // standing in from them, and a jet over it.
+    let scene = Pour::default();
     let wood = materials.add(StandardMaterial {
         base_color: Color::srgb(0.45, 0.32, 0.2),
         perceptual_roughness: 0.8,
         ..default()
     });
-    let post_mesh = meshes.add(Cylinder::new(0.02, HEIGHT));
-    let n = VERTICES;
+    let post_mesh = meshes.add(Cylinder::new(0.02, scene.height));
     let mut cloth = Cloth::default();
-    for k in [0, n - 1, n * (n - 1), n * n - 1] {
-        let (i, j) = (k % n, k / n);
-        let corner = Vec3::new(
-            (i as f32 / (n - 1) as f32 - 0.5) * SIDE,
-            0.0,
-            (j as f32 / (n - 1) as f32 - 0.5) * SIDE,
-        ) * SPAN;
+    for (vertex, top) in scene.posts() {
         commands.spawn((
             Mesh3d(post_mesh.clone()),
             MeshMaterial3d(wood.clone()),
-            Transform::from_translation(corner + Vec3::Y * HEIGHT / 2.0),
+            Transform::from_translation(top - Vec3::Y * scene.height / 2.0),
         ));
-        let top = commands
-            .spawn(Transform::from_translation(corner + Vec3::Y * HEIGHT))
-            .id();
+        let top = commands.spawn(Transform::from_translation(top)).id();
         cloth = cloth.with_attachment(VertexAttachment {
-            vertex: k,
+            vertex,
             target: top,
             offset: Vec3::ZERO,
         });
     }
     commands.spawn((
         Name::new("hammock"),
-        Mesh3d(meshes.add(grid_mesh(&grid))),
+        Mesh3d(meshes.add(grid_mesh(&scene.grid()))),
         MeshMaterial3d(cloth_material(
             &mut materials,
             Color::srgb(0.85, 0.75, 0.55),
         )),
         cloth,
         ClothSettings {
-            density: 0.2,
-            // Water is 30 to 40 times heavier than the cloth that holds it: the cloth needs
-            // the iterations to carry it (tests/fluid_cloth.rs).
-            solver: SolverSettings {
-                substeps: 16,
-                iterations: 4,
-                ..default()
-            },
+            density: scene.density,
+            solver: scene.cloth,
             ground: Some(0.0),
             ..default()
         },
-        Transform::from_xyz(0.0, HEIGHT, 0.0),
         Fluid {
-            settings: FluidSettings::default(),
-            source: JET,
+            settings: scene.fluid,
+            source: FluidSource::Jet(scene.jet),
         },
         Drops::default(),
     ));

@@ -49,7 +49,7 @@ pub mod prelude {
     pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
     pub use crate::files::{BoneCollidersFile, ClothSettingsFile, FileAsset, FromFile};
     pub use crate::fluid::plugin::{Fluid, FluidPlugin, FluidSimulation, FluidSource};
-    pub use crate::fluid::{FluidSettings, FluidSolver};
+    pub use crate::fluid::{FluidJet, FluidSettings, FluidSolver};
     pub use crate::schedule::{DrapeSystems, DrapeTimings};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     #[cfg(feature = "animation")]

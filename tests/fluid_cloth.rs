@@ -61,7 +61,8 @@ fn sheet(size: f32, n: u32, centre: Vec3, density: f32) -> ClothSolver {
 
 /// Random blocks of fluid thrown at random speeds onto a free sheet, everything falling with
 /// no collider and no damping: the momentum of cloth and fluid together changes by the
-/// weight's impulse alone, to f32 round-off, while they collide and exchange it.
+/// weight's impulse alone, to f32 round-off (1e-4 of it over 2 s), while they collide and
+/// exchange it.
 #[test]
 fn cloth_and_fluid_falling_together_keep_their_momentum() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
@@ -80,8 +81,8 @@ fn cloth_and_fluid_falling_together_keep_their_momentum() {
         fluid.add_particles(&x, thrown).unwrap();
         let total_mass = cloth_mass(&cloth) + fluid.particle_mass() * fluid.len() as f32;
         let start = Vec3::from(cloth_momentum(&cloth)) + fluid.momentum();
-        let mut exchanged = 0.0f32;
-        for k in 1..=40 {
+        let (mut exchanged, mut worst) = (0.0f32, 0.0f32);
+        for k in 1..=120 {
             fluid
                 .step_with_cloth(&mut cloth, &settings, GRAVITY, DT)
                 .unwrap();
@@ -89,12 +90,15 @@ fn cloth_and_fluid_falling_together_keep_their_momentum() {
             let expected = start + GRAVITY * total_mass * k as f32 * DT;
             let total = Vec3::from(cloth_momentum(&cloth)) + fluid.momentum();
             let error = (total - expected).length();
+            worst = worst.max(error / expected.length());
             assert!(
-                error <= 5e-4 * expected.length(),
+                error <= 1e-4 * expected.length(),
                 "case {case}, step {k}: momentum off by {error} of {expected}"
             );
         }
-        eprintln!("case {case}: largest impulse of a step {exchanged:.4} N s");
+        eprintln!(
+            "case {case}: largest impulse of a step {exchanged:.4} N s, momentum off by {worst:.1e} at worst"
+        );
         assert!(
             exchanged > 0.0,
             "case {case}: the fluid never touched the cloth"

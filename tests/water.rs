@@ -161,13 +161,13 @@ fn a_jet_fills_a_box_and_stops_at_its_count() {
         .world_mut()
         .spawn(Fluid {
             settings: FluidSettings::default(),
-            source: FluidSource::Jet {
+            source: FluidSource::Jet(FluidJet {
                 origin: Vec3::new(0.0, 0.4, 0.0),
                 velocity: Vec3::new(0.0, -1.0, 0.0),
                 radius: 0.03,
                 rate: 600.0,
                 max_particles: 400,
-            },
+            }),
         })
         .id();
     for _ in 0..121 {
@@ -205,4 +205,54 @@ fn a_fluid_with_bad_settings_is_left_out() {
         app.update();
     }
     assert!(app.world().get::<FluidSimulation>(bad).is_none());
+}
+
+/// Settings changed on a running fluid reach its solver with the particles kept; a bad one
+/// leaves the solver as it was and the app running.
+#[test]
+fn changed_fluid_settings_reach_the_solver_and_bad_ones_are_refused() {
+    let mut app = app();
+    let fluid = app
+        .world_mut()
+        .spawn(Fluid {
+            settings: FluidSettings::default(),
+            source: FluidSource::Block {
+                min: Vec3::new(-0.05, 0.0, -0.05),
+                max: Vec3::new(0.05, 0.1, 0.05),
+            },
+        })
+        .id();
+    for _ in 0..3 {
+        app.update();
+    }
+    let count = app
+        .world()
+        .get::<FluidSimulation>(fluid)
+        .unwrap()
+        .solver()
+        .len();
+    assert!(count > 0);
+    let changed = FluidSettings {
+        viscosity: 0.1,
+        iterations: 7,
+        rest_density: 900.0,
+        ..FluidSettings::default()
+    };
+    app.world_mut().get_mut::<Fluid>(fluid).unwrap().settings = changed;
+    app.update();
+    let solver = app.world().get::<FluidSimulation>(fluid).unwrap().solver();
+    assert_eq!(*solver.settings(), changed);
+    assert_eq!(solver.len(), count);
+    app.world_mut()
+        .get_mut::<Fluid>(fluid)
+        .unwrap()
+        .settings
+        .relaxation = f32::NAN;
+    for _ in 0..5 {
+        app.update();
+    }
+    let solver = app.world().get::<FluidSimulation>(fluid).unwrap().solver();
+    assert_eq!(*solver.settings(), changed);
+    assert_eq!(solver.len(), count);
+    assert!(solver.positions().iter().all(|p| p.is_finite()));
 }

@@ -3,10 +3,13 @@
 //! the step ([`FluidSolver::step_with_cloth`](super::FluidSolver::step_with_cloth)).
 //!
 //! The fluid runs inside the cloth's step (`cloth/sim/step.rs`, `SubstepCoupling`): when a
-//! cloth substep of length `h` begins the fluid predicts over `h` and the cloth's triangles
-//! are sorted into a hashed grid at their predicted positions; in each of the cloth's
+//! cloth substep of length `h` begins the fluid predicts over `h`, the cloth's triangles
+//! are sorted into a hashed grid at their predicted positions (a counting sort), and each
+//! fluid particle's candidates are the triangles whose bounds, grown by twice its radius,
+//! hold its predicted position; in each of the cloth's
 //! iterations, after its colliders and before its own constraints, the fluid projects its
-//! density constraint, its colliders, then the contacts with the cloth's triangles; when the
+//! share of its density sweeps (its budget per step spread over the cloth's iterations, at
+//! least one per substep), its colliders, then the contacts with the cloth's triangles; when the
 //! substep ends both take their velocities from their positions over the same `h`.
 //!
 //! A contact: a fluid particle of radius `r` whose projection onto a triangle's plane lies
@@ -27,16 +30,25 @@ use super::FluidSolver;
 use super::neighbours::{bucket, cell_of};
 use crate::cloth::SubstepCoupling;
 
-/// The contacts between a fluid and a cloth: the cloth's triangles in a hashed grid, and
-/// what the last step did.
+/// The contacts between a fluid and a cloth: the cloth's triangles in a hashed grid, each
+/// fluid particle's candidate triangles for the substep, and what the last step did.
 #[derive(Clone, Debug, Default)]
 pub struct ClothContacts {
     cell: f32,
     mask: u32,
+    /// The triangles of hashed cell `b` are `entries[start[b]..start[b + 1]]`.
     start: Vec<u32>,
     entries: Vec<u32>,
-    /// (bucket, triangle) while building.
-    pairs: Vec<(u32, u32)>,
+    /// Each triangle's grown bounds, while sorting.
+    bounds: Vec<(Vec3A, Vec3A)>,
+    /// The candidate triangles of fluid particle `i` are
+    /// `candidates[candidate_start[i]..candidate_start[i + 1]]`.
+    candidate_start: Vec<u32>,
+    candidates: Vec<u32>,
+    /// Each triangle's normal (unnormalised) and first corner when the substep began, filled
+    /// at the substep's first iteration.
+    start_planes: Vec<(Vec3A, Vec3A)>,
+    start_planes_ready: bool,
     /// Fluid particles found across a triangle and put back, in the last step.
     crossings: usize,
     /// The impulse the fluid gave the cloth in the last step, N s.
@@ -66,8 +78,9 @@ impl ClothContacts {
     }
 
     /// Sorts the triangles at the cloth's positions `x` into the grid, each over its bounds
-    /// grown by `2 r` (the cloth and the fluid move a little within the substep).
-    fn sort(&mut self, x: &[Vec3A], triangles: &[[u32; 3]]) {
+    /// grown by `2 r` (the cloth and the fluid move a little within the substep), and finds
+    /// each fluid particle's (at `xf`) candidate triangles.
+    fn find_candidates(&mut self, xf: &[Vec3A], x: &[Vec3A], triangles: &[[u32; 3]]) {
         let r = self.radius;
         let mut longest = 0.0f32;
         for t in triangles {
@@ -81,49 +94,81 @@ impl ClothContacts {
         self.cell = longest.max(4.0 * r);
         let inv = 1.0 / self.cell;
         let grow = Vec3A::splat(2.0 * r);
-        self.pairs.clear();
-        let mut count = 0usize;
-        for pass in 0..2 {
-            for (ti, t) in triangles.iter().enumerate() {
-                let [a, b, c] = t.map(|k| x[k as usize]);
-                let (lo, hi) = (a.min(b).min(c) - grow, a.max(b).max(c) + grow);
-                if !(lo.is_finite() && hi.is_finite()) {
-                    continue;
-                }
-                let (c0, c1) = (cell_of(lo, inv), cell_of(hi, inv));
-                if (0..3).any(|k| c1[k] - c0[k] > 8) {
-                    continue;
-                }
-                for cz in c0[2]..=c1[2] {
-                    for cy in c0[1]..=c1[1] {
-                        for cx in c0[0]..=c1[0] {
-                            if pass == 0 {
-                                count += 1;
-                            } else {
-                                self.pairs
-                                    .push((bucket([cx, cy, cz], self.mask), ti as u32));
-                            }
-                        }
+        // The cells each triangle covers (none for a non-finite or a huge one).
+        let cells = |(lo, hi): (Vec3A, Vec3A)| {
+            let (c0, c1) = (cell_of(lo, inv), cell_of(hi, inv));
+            let fits = lo.is_finite() && hi.is_finite() && (0..3).all(|k| c1[k] - c0[k] <= 8);
+            fits.then_some((c0, c1))
+        };
+        let each_cell = |(c0, c1): ([i32; 3], [i32; 3]), f: &mut dyn FnMut([i32; 3])| {
+            for cz in c0[2]..=c1[2] {
+                for cy in c0[1]..=c1[1] {
+                    for cx in c0[0]..=c1[0] {
+                        f([cx, cy, cz]);
                     }
                 }
             }
-            if pass == 0 {
-                self.mask = (2 * count).next_power_of_two().max(64) as u32 - 1;
+        };
+        self.bounds.clear();
+        let mut count = 0usize;
+        for t in triangles {
+            let [a, b, c] = t.map(|k| x[k as usize]);
+            let bounds = (a.min(b).min(c) - grow, a.max(b).max(c) + grow);
+            if let Some(range) = cells(bounds) {
+                each_cell(range, &mut |_| count += 1);
             }
+            self.bounds.push(bounds);
         }
-        self.pairs.sort_unstable();
-        self.pairs.dedup();
+        // A counting sort by bucket, triangle by triangle, so that a triangle met twice in
+        // one bucket (two of its cells hashed alike) is listed twice in a row.
+        self.mask = (2 * count).next_power_of_two().max(64) as u32 - 1;
         let buckets = self.mask as usize + 1;
+        let mask = self.mask;
         self.start.clear();
         self.start.resize(buckets + 1, 0);
-        for &(b, _) in &self.pairs {
-            self.start[b as usize + 1] += 1;
+        for &bounds in &self.bounds {
+            if let Some(range) = cells(bounds) {
+                each_cell(range, &mut |c| {
+                    self.start[bucket(c, mask) as usize + 1] += 1
+                });
+            }
         }
         for b in 0..buckets {
             self.start[b + 1] += self.start[b];
         }
         self.entries.clear();
-        self.entries.extend(self.pairs.iter().map(|&(_, t)| t));
+        self.entries.resize(count, 0);
+        for (ti, &bounds) in self.bounds.iter().enumerate() {
+            if let Some(range) = cells(bounds) {
+                each_cell(range, &mut |c| {
+                    let slot = &mut self.start[bucket(c, mask) as usize];
+                    self.entries[*slot as usize] = ti as u32;
+                    *slot += 1;
+                });
+            }
+        }
+        // `start[b]` now holds bucket b's end, that is bucket b + 1's start.
+        self.start.rotate_right(1);
+        self.start[0] = 0;
+        // Each particle's candidates: the triangles of its bucket whose bounds hold it.
+        self.candidate_start.clear();
+        self.candidates.clear();
+        self.candidate_start.push(0);
+        for &p in xf {
+            let cell = bucket(cell_of(p, inv), self.mask) as usize;
+            if let Some(range) = self.start.get(cell..cell + 2) {
+                let mut last = u32::MAX;
+                for &ti in &self.entries[range[0] as usize..range[1] as usize] {
+                    let (lo, hi) = self.bounds[ti as usize];
+                    if ti != last && p.cmpge(lo).all() && p.cmple(hi).all() {
+                        self.candidates.push(ti);
+                    }
+                    last = ti;
+                }
+            }
+            self.candidate_start.push(self.candidates.len() as u32);
+        }
+        self.start_planes_ready = false;
     }
 
     /// Separates the fluid particles `xf` (at `xf_prev` when the substep began) from the
@@ -139,17 +184,21 @@ impl ClothContacts {
         w: &[f32],
         triangles: &[[u32; 3]],
     ) {
-        if self.start.is_empty() || self.mass.is_nan() || self.mass <= 0.0 {
+        if self.candidate_start.len() != xf.len() + 1 || self.mass.is_nan() || self.mass <= 0.0 {
             return;
         }
+        if !self.start_planes_ready {
+            self.start_planes.clear();
+            self.start_planes.extend(triangles.iter().map(|t| {
+                let [a, b, c] = t.map(|k| x_prev[k as usize]);
+                ((b - a).cross(c - a), a)
+            }));
+            self.start_planes_ready = true;
+        }
         let (r, wf) = (self.radius, 1.0 / self.mass);
-        let inv = 1.0 / self.cell;
-        for (pf, &pf_prev) in xf.iter_mut().zip(xf_prev) {
-            let cell = bucket(cell_of(*pf, inv), self.mask) as usize;
-            let Some(range) = self.start.get(cell..cell + 2) else {
-                continue;
-            };
-            for &ti in &self.entries[range[0] as usize..range[1] as usize] {
+        for (i, (pf, &pf_prev)) in xf.iter_mut().zip(xf_prev).enumerate() {
+            let range = self.candidate_start[i] as usize..self.candidate_start[i + 1] as usize;
+            for &ti in &self.candidates[range] {
                 let [a, b, c] = triangles[ti as usize].map(|k| k as usize);
                 let (p0, p1, p2) = (x[a], x[b], x[c]);
                 let normal = (p1 - p0).cross(p2 - p0);
@@ -160,8 +209,7 @@ impl ClothContacts {
                 let n = normal / area2;
                 let d = n.dot(*pf - p0);
                 // The side the particle was on when the substep began.
-                let q0 = x_prev[a];
-                let n_prev = (x_prev[b] - q0).cross(x_prev[c] - q0);
+                let (n_prev, q0) = self.start_planes[ti as usize];
                 let side = if n_prev.dot(pf_prev - q0) >= 0.0 {
                     1.0
                 } else {
@@ -199,8 +247,11 @@ impl ClothContacts {
 /// The fluid as the cloth's step sees it (`SubstepCoupling`).
 pub(crate) struct FluidInCloth<'a> {
     pub(crate) fluid: &'a mut FluidSolver,
-    /// Density sweeps per cloth iteration.
+    /// Density sweeps per cloth substep, spread over its iterations.
     pub(crate) sweeps: u32,
+    /// The cloth's iterations per substep, and the current one.
+    pub(crate) iterations: u32,
+    pub(crate) iteration: u32,
     /// The current substep, and how many the cloth takes.
     pub(crate) substep: u32,
     pub(crate) substeps: u32,
@@ -213,16 +264,22 @@ impl SubstepCoupling for FluidInCloth<'_> {
             self.fluid.settings().particle_radius,
             self.fluid.particle_mass(),
         );
-        let (_, _, contacts) = self.fluid.contact_parts();
+        let (xf, _, contacts) = self.fluid.contact_parts();
         contacts.radius = radius;
         contacts.mass = mass;
         contacts.h = h;
-        contacts.sort(x, triangles);
+        contacts.find_candidates(xf, x, triangles);
+        self.iteration = 0;
     }
 
     fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]) {
         let t = (self.substep + 1) as f32 / self.substeps as f32;
-        for _ in 0..self.sweeps {
+        // Iteration k of n takes ceil((k + 1) s / n) - ceil(k s / n) of the substep's s
+        // sweeps: the first iteration one at least, the rest spread evenly.
+        let (k, n) = (self.iteration, self.iterations.max(1));
+        let due = ((k + 1) * self.sweeps).div_ceil(n) - (k * self.sweeps).div_ceil(n);
+        self.iteration += 1;
+        for _ in 0..due {
             self.fluid.project_density();
         }
         self.fluid.project_colliders(t);

@@ -4,6 +4,7 @@
 //! cloth in its substeps, both ways ([`FluidSolver::step_with_cloth`], `cloth_coupling.rs`).
 
 pub mod cloth_coupling;
+pub mod jet;
 pub(crate) mod kernels;
 pub(crate) mod neighbours;
 pub mod plugin;
@@ -11,5 +12,6 @@ pub mod settings;
 pub mod solver;
 
 pub use cloth_coupling::ClothContacts;
+pub use jet::{FluidJet, JetEmitter};
 pub use settings::FluidSettings;
 pub use solver::{DensityError, FluidSolver};

@@ -1,7 +1,10 @@
 //! Neighbour lists from a uniform grid: the particles are sorted into cubic cells as wide as
-//! the search radius (a counting sort over a hashed cell table), and each particle's
-//! neighbours are the particles of the 27 cells around its own that are closer than the
-//! radius. Built once per fixed step; every list reuses its memory.
+//! the longest search distance (a counting sort over a hashed cell table), and each
+//! particle's neighbours are the particles of the 27 cells around its own that are close
+//! enough: `i` and `j` are neighbours if they are closer than `h + m_i + m_j`, where `m_i` is
+//! how far particle `i` may move in the step (so a particle at rest among others at rest
+//! lists only its kernel's neighbours, and a fast one all it can reach). Built once per fixed
+//! step; every list reuses its memory.
 
 use bevy::math::Vec3A;
 
@@ -36,10 +39,14 @@ pub(crate) fn cell_of(p: Vec3A, inv: f32) -> [i32; 3] {
 }
 
 impl Neighbours {
-    /// Finds, for every position in `x`, the others closer than `radius` (> 0). Positions
+    /// Finds, for every position in `x`, the others closer than `h + margins[i] +
+    /// margins[j]` (`h` > 0, margins finite and non-negative, one per position). Positions
     /// must be finite.
-    pub(crate) fn build(&mut self, x: &[Vec3A], radius: f32) {
+    pub(crate) fn build(&mut self, x: &[Vec3A], h: f32, margins: &[f32]) {
         let n = x.len();
+        debug_assert_eq!(margins.len(), n);
+        let widest = margins.iter().copied().fold(0.0f32, f32::max);
+        let radius = h + 2.0 * widest;
         let buckets = (2 * n).next_power_of_two().max(64);
         let mask = buckets as u32 - 1;
         let inv = 1.0 / radius;
@@ -65,13 +72,13 @@ impl Neighbours {
         // `cell_start[b + 1]` now holds bucket b's start: shift back by one.
         self.cell_start.rotate_left(1);
         self.cell_start[buckets] = n as u32;
-        let r2 = radius * radius;
         self.start.clear();
         self.list.clear();
         self.start.push(0);
         let mut seen = [u32::MAX; 27];
         for (i, &p) in x.iter().enumerate() {
             let c = cell_of(p, inv);
+            let reach = h + margins[i];
             let mut buckets_seen = 0;
             for dz in -1..=1 {
                 for dy in -1..=1 {
@@ -86,7 +93,8 @@ impl Neighbours {
                         let range = self.cell_start[b as usize] as usize
                             ..self.cell_start[b as usize + 1] as usize;
                         for &j in &self.sorted[range] {
-                            if j as usize != i && x[j as usize].distance_squared(p) < r2 {
+                            let r = reach + margins[j as usize];
+                            if j as usize != i && x[j as usize].distance_squared(p) < r * r {
                                 self.list.push(j);
                             }
                         }
@@ -137,15 +145,18 @@ mod tests {
                             * spread
                 })
                 .collect();
-            let radius = 0.02 + 0.05 * rng(&mut s);
-            grid.build(&x, radius);
+            let h = 0.02 + 0.05 * rng(&mut s);
+            // Margins of all sizes, most at rest (0), some up to h / 2.
+            let margins: Vec<f32> = (0..n).map(|_| (rng(&mut s) - 0.5).max(0.0) * h).collect();
+            grid.build(&x, h, &margins);
             let mut pairs = 0;
             for i in 0..n {
                 let mut found: Vec<u32> = grid.of(i).to_vec();
                 found.sort_unstable();
                 let expected: Vec<u32> = (0..n as u32)
                     .filter(|&j| {
-                        j as usize != i && x[j as usize].distance_squared(x[i]) < radius * radius
+                        let r = h + margins[i] + margins[j as usize];
+                        j as usize != i && x[j as usize].distance_squared(x[i]) < r * r
                     })
                     .collect();
                 assert_eq!(found, expected, "case {case}, particle {i}");

@@ -2,11 +2,13 @@
 //! come from), built into a [`FluidSimulation`] and stepped in the fixed-step schedule's
 //! [`DrapeSystems::Step`] set. A `Fluid` on a cloth's entity is water in that cloth: the
 //! cloth's step runs it inside its own substeps ([`FluidSolver::step_with_cloth`]); on any
-//! other entity it steps alone. Either way it is kept out of the world's colliders.
+//! other entity it steps alone. Either way it is kept out of the world's colliders. A changed
+//! `Fluid::settings` reaches the solver at the next step, its particles kept; a new source
+//! takes effect when the `FluidSimulation` is removed (it is built again).
 
 use bevy::prelude::*;
 
-use super::{FluidSettings, FluidSolver};
+use super::{FluidJet, FluidSettings, FluidSolver, JetEmitter};
 use crate::cloth::plugin::{Cloth, DrapeSettings};
 use crate::collide::plugin::StepColliders;
 use crate::schedule::{DrapeSchedule, DrapeSystems};
@@ -21,20 +23,8 @@ pub enum FluidSource {
         /// Its largest corner.
         max: Vec3,
     },
-    /// A round jet: `rate` particles per second leave a disc of `radius` at `origin` with
-    /// `velocity` (the disc faces it), until the fluid has `max_particles`.
-    Jet {
-        /// The disc's centre (world).
-        origin: Vec3,
-        /// The particles' velocity, m/s.
-        velocity: Vec3,
-        /// The disc's radius, metres.
-        radius: f32,
-        /// Particles per second.
-        rate: f32,
-        /// The most particles the jet makes.
-        max_particles: usize,
-    },
+    /// A round jet, emitting every step until it has made its count.
+    Jet(FluidJet),
 }
 
 /// A body of fluid particles (Position Based Fluids). On a [`Cloth`]'s entity, it is water
@@ -52,52 +42,14 @@ pub struct Fluid {
 #[derive(Component, Debug)]
 pub struct FluidSimulation {
     pub(crate) solver: FluidSolver,
-    /// Particles owed by a jet (fractions carried from step to step).
-    owed: f32,
-    /// Where the jet's next particles go round its disc (a golden-angle spiral).
-    spiral: u32,
+    /// What a jet carries from step to step.
+    emitter: JetEmitter,
 }
 
 impl FluidSimulation {
     /// The solver.
     pub fn solver(&self) -> &FluidSolver {
         &self.solver
-    }
-
-    /// Emits this step's share of a jet (`dt` long).
-    fn emit(&mut self, source: &FluidSource, dt: f32) {
-        let FluidSource::Jet {
-            origin,
-            velocity,
-            radius,
-            rate,
-            max_particles,
-        } = *source
-        else {
-            return;
-        };
-        self.owed += rate.max(0.0) * dt;
-        let room = max_particles.saturating_sub(self.solver.len());
-        let count = (self.owed.floor() as usize).min(room);
-        self.owed -= count as f32;
-        if count == 0 {
-            self.owed = self.owed.min(1.0);
-            return;
-        }
-        let axis = velocity.normalize_or(Vec3::NEG_Y);
-        let (u, v) = axis.any_orthonormal_pair();
-        let mut points = Vec::with_capacity(count);
-        for _ in 0..count {
-            // Sunflower spiral over the disc.
-            let k = self.spiral as f32 + 0.5;
-            let r = radius * (k / 64.0).fract().sqrt();
-            let a = k * 2.399_963;
-            points.push(origin + (u * a.cos() + v * a.sin()) * r);
-            self.spiral = self.spiral.wrapping_add(1);
-        }
-        if let Err(err) = self.solver.add_particles(&points, velocity) {
-            warn!("fluid jet: {err}");
-        }
     }
 }
 
@@ -110,7 +62,7 @@ impl Plugin for FluidPlugin {
         app.register_type::<Fluid>()
             .add_systems(
                 schedule,
-                (build_fluids, emit_fluids)
+                (build_fluids, apply_fluid_settings, emit_fluids)
                     .chain()
                     .in_set(DrapeSystems::Prepare),
             )
@@ -144,16 +96,37 @@ fn build_fluids(
         }
         commands.entity(entity).insert(FluidSimulation {
             solver,
-            owed: 0.0,
-            spiral: 0,
+            emitter: JetEmitter::default(),
         });
     }
 }
 
+/// Hands a changed [`Fluid::settings`] to its solver (the particles stay); a bad setting is
+/// logged with the entity, and the solver keeps the settings it had.
+fn apply_fluid_settings(mut fluids: Query<(Entity, &Fluid, &mut FluidSimulation), Changed<Fluid>>) {
+    for (entity, fluid, mut simulation) in &mut fluids {
+        if *simulation.solver.settings() == fluid.settings {
+            continue;
+        }
+        if let Err(err) = simulation.solver.set_settings(fluid.settings) {
+            warn!("fluid {entity} keeps its previous settings: {err}");
+        }
+    }
+}
+
 /// A jet's particles for this step.
-fn emit_fluids(mut fluids: Query<(&Fluid, &mut FluidSimulation)>, time: Res<Time>) {
-    for (fluid, mut simulation) in &mut fluids {
-        simulation.emit(&fluid.source, time.delta_secs());
+fn emit_fluids(mut fluids: Query<(Entity, &Fluid, &mut FluidSimulation)>, time: Res<Time>) {
+    for (entity, fluid, mut simulation) in &mut fluids {
+        let FluidSource::Jet(jet) = &fluid.source else {
+            continue;
+        };
+        let simulation = &mut *simulation;
+        if let Err(err) = simulation
+            .emitter
+            .emit(jet, &mut simulation.solver, time.delta_secs())
+        {
+            warn!("fluid {entity}: its jet adds nothing: {err}");
+        }
     }
 }
 

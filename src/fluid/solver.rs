@@ -1,10 +1,11 @@
 //! The Position Based Fluids step (Macklin and Müller 2013), for one set of particles.
 //!
-//! Once per fixed step the neighbour lists are built (`neighbours.rs`) with the smoothing
-//! radius `h` plus how far two particles can close in on each other during the step (twice
-//! the largest travel relative to the fluid's mean velocity, at most `h`), so a fluid carried
-//! along searches no further than one at rest. Then, in each of `substeps` substeps of
-//! length `dt_s`:
+//! Once per fixed step the neighbour lists are built (`neighbours.rs`): two particles are
+//! neighbours if they are closer than the smoothing radius `h` plus how far each can travel
+//! in the step relative to the fluid's typical velocity (the median of each component;
+//! `|v - v_typical| dt + g dt^2 / 2`, at most `h / 2`), so a fluid carried along searches no
+//! further than one at rest, and the particles at rest in a pool no further than their
+//! kernel while a jet falls into it. Then, in each of `substeps` substeps of length `dt_s`:
 //!
 //! 1. **Predict**: `v += dt_s g`, `x* = x + dt_s v`.
 //! 2. **Density constraint**, `iterations` Jacobi sweeps. Each particle's density is
@@ -334,10 +335,10 @@ impl FluidSolver {
 
     /// Advances the fluid and `cloth` together by `dt` seconds under `gravity`, in the
     /// cloth's substeps (`cloth_settings`, at a fixed count): in each of the cloth's
-    /// iterations the fluid's density constraint (as many sweeps as give the fluid about
-    /// its own budget of `substeps x iterations` sweeps per step), its colliders, and its
-    /// contacts with the cloth's triangles, both ways (`cloth_coupling.rs`), before the
-    /// cloth's own constraints. A bad setting or `dt` is refused by the cloth, and nothing
+    /// iterations its share of the density sweeps (the fluid's own budget of
+    /// `substeps x iterations` sweeps per step spread over the cloth's iterations, at least
+    /// one in each cloth substep), its colliders and its contacts with the cloth's
+    /// triangles, both ways (`cloth_coupling.rs`), before the cloth's own constraints. A bad setting or `dt` is refused by the cloth, and nothing
     /// moves.
     pub fn step_with_cloth(
         &mut self,
@@ -351,12 +352,16 @@ impl FluidSolver {
         if !self.begin_step(gravity, dt) {
             return cloth.step(cloth_settings, gravity, dt);
         }
+        // The fluid's own budget of `substeps x iterations` density sweeps per step, at
+        // least one in every cloth substep.
         let budget = self.settings.substeps.max(1) * self.settings.iterations.max(1);
-        let cloth_sweeps = cloth_settings.substeps.max(1) * cloth_settings.iterations.max(1);
-        let sweeps = budget.div_ceil(cloth_sweeps).max(1);
+        let substeps = cloth_settings.substeps.max(1);
+        let sweeps = budget.div_ceil(substeps);
         let mut coupling = FluidInCloth {
             fluid: self,
             sweeps,
+            iterations: cloth_settings.iterations.max(1),
+            iteration: 0,
             substep: 0,
             substeps: cloth_settings.substeps.max(1),
         };
@@ -401,6 +406,10 @@ impl FluidSolver {
     /// A substep's end: velocities from the positions, densities, vorticity confinement
     /// and viscosity.
     pub(crate) fn end_substep(&mut self, h: f32) {
+        // v = (x - x_prev) / h, computed as v + (x - x_pred) / h with the prediction
+        // `x_prev + v h` recomputed bit for bit (as the cloth does): a particle no constraint
+        // moved keeps its velocity exactly, and the momentum a correction adds is that of the
+        // correction alone, not the rounding of two nearly equal positions far from the origin.
         let inv_h = 1.0 / h;
         for ((v, &x), &x_prev) in self
             .velocities
@@ -408,7 +417,8 @@ impl FluidSolver {
             .zip(&self.positions)
             .zip(&self.previous)
         {
-            *v = (x - x_prev) * inv_h;
+            let predicted = x_prev + *v * h;
+            *v += (x - predicted) * inv_h;
         }
         self.update_densities();
         if self.settings.vorticity > 0.0 {
@@ -421,18 +431,23 @@ impl FluidSolver {
 
     /// The neighbour lists for this step (see the module docs).
     fn build_neighbours(&mut self, g: Vec3A, dt: f32) {
-        let n = self.positions.len() as f32;
-        let mean = self.velocities.iter().copied().sum::<Vec3A>() / n;
-        let fastest = self
-            .velocities
-            .iter()
-            .map(|v| (*v - mean).length_squared())
-            .fold(0.0f32, f32::max)
-            .sqrt();
+        // The fluid's typical velocity: the median of each component (a jet falling into a
+        // pool at rest leaves the pool's particles at rest relative to it).
+        let n = self.positions.len();
+        let typical = Vec3A::from_array(std::array::from_fn(|k| {
+            let values = &mut self.scratch_scalars[..n];
+            for (value, v) in values.iter_mut().zip(&self.velocities) {
+                *value = v[k];
+            }
+            *values.select_nth_unstable_by(n / 2, f32::total_cmp).1
+        }));
         let h = self.kernels.h;
-        let travel = fastest * dt + 0.5 * g.length() * dt * dt;
-        let radius = h + (2.0 * travel).min(h);
-        self.neighbours.build(&self.positions, radius);
+        let floor = 0.5 * g.length() * dt * dt;
+        for (margin, v) in self.scratch_scalars.iter_mut().zip(&self.velocities) {
+            *margin = ((*v - typical).length() * dt + floor).min(0.5 * h);
+        }
+        self.neighbours
+            .build(&self.positions, h, &self.scratch_scalars[..n]);
     }
 
     /// `rho_i` for every particle at the current positions.

@@ -1,12 +1,13 @@
 //! The egui panel (feature `egui`): the selected cloth's solver settings as sliders, the
 //! world's gravity, wind, time scale, pause, single step and reset, live readouts of the fixed
-//! step's cost by stage, strain, energy and contacts, the debug colours and collider gizmos.
+//! step's cost by stage, strain, energy and contacts, each fluid's settings and density error,
+//! the debug colours and collider gizmos.
 //!
 //! Add [`DrapePanelPlugin`] next to `DefaultPlugins` and [`crate::DrapePlugins`]; the panel
-//! edits the same components and resources a game would ([`ClothSettings`],
+//! edits the same components and resources a game would ([`ClothSettings`], [`Fluid`],
 //! [`DrapeSettings`], [`ClothDebugColors`], [`ColliderGizmos`], `Time<Virtual>`), so whatever
 //! it changes behaves as it would from code: a new density recomputes the masses, a new method
-//! keeps the positions.
+//! keeps the positions, a fluid's new settings keep its particles.
 
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
@@ -21,6 +22,8 @@ use crate::cloth::plugin::{
 use crate::cloth::settings::{DampingMode, SolverMethod};
 use crate::cloth::wind_plugin::Wind;
 use crate::collide::plugin::ClothCollider;
+use crate::fluid::FluidSettings;
+use crate::fluid::plugin::{Fluid, FluidSimulation};
 use crate::schedule::{DrapeSchedule, DrapeTimings};
 
 /// Adds the panel (and `EguiPlugin` if the App has none).
@@ -77,6 +80,7 @@ fn panel(
     mut colliders: Query<&mut ClothCollider>,
     drag: Option<ResMut<super::drag::ClothDrag>>,
     wind: Option<ResMut<Wind>>,
+    mut fluids: Query<(Entity, Option<&Name>, &mut Fluid, Option<&FluidSimulation>)>,
 ) -> Result {
     let ctx = contexts.ctx_mut()?;
     if let Some(mut drag) = drag {
@@ -107,8 +111,12 @@ fn panel(
     });
     let (mut collider_friction, mut collider_restitution) = (friction0, restitution0);
 
+    // As tall as the window lets it be, scrolled when it is taller.
+    let height = (ctx.content_rect().height() - 40.0).max(200.0);
     egui::Window::new("bevy_drape")
         .default_width(280.0)
+        .default_height(height)
+        .vscroll(true)
         .show(ctx, |ui| {
             // World.
             ui.horizontal(|ui| {
@@ -175,6 +183,34 @@ fn panel(
                 ms(parts.air),
                 ms(timings.write_back)
             ));
+
+            for (entity, name, mut fluid, simulation) in &mut fluids {
+                ui.separator();
+                let label =
+                    name.map_or_else(|| format!("fluid {entity}"), |n| format!("fluid: {n}"));
+                egui::CollapsingHeader::new(label)
+                    .default_open(true)
+                    .show(ui, |ui| {
+                        let mut edited = fluid.settings;
+                        fluid_controls(ui, &mut edited);
+                        if edited != fluid.settings {
+                            fluid.settings = edited;
+                        }
+                        if let Some(simulation) = simulation {
+                            let solver = simulation.solver();
+                            let error = solver.density_error();
+                            ui.label(format!(
+                                "{} particles, density error mean {:.2}%, max {:.2}%",
+                                solver.len(),
+                                100.0 * error.mean,
+                                100.0 * error.max
+                            ));
+                            if ui.button("refill").clicked() {
+                                commands.entity(entity).remove::<FluidSimulation>();
+                            }
+                        }
+                    });
+            }
 
             ui.separator();
             let selected_name = names
@@ -383,6 +419,26 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
         (true, None) => solver.air = Some(AirSettings::default()),
         (false, _) => solver.air = None,
     }
+}
+
+/// The sliders of one fluid's settings (the particle radius is left as built: changing it
+/// under a body of water would compress or burst it).
+fn fluid_controls(ui: &mut egui::Ui, settings: &mut FluidSettings) {
+    ui.add(egui::Slider::new(&mut settings.substeps, 1..=16).text("substeps"));
+    ui.add(egui::Slider::new(&mut settings.iterations, 1..=16).text("iterations"));
+    ui.add(
+        egui::Slider::new(&mut settings.rest_density, 100.0..=2000.0).text("rest density, kg/m³"),
+    );
+    ui.add(
+        egui::Slider::new(&mut settings.relaxation, 1e-4..=1.0)
+            .logarithmic(true)
+            .text("relaxation"),
+    );
+    ui.add(
+        egui::Slider::new(&mut settings.artificial_pressure, 0.0..=0.1).text("artificial pressure"),
+    );
+    ui.add(egui::Slider::new(&mut settings.vorticity, 0.0..=2.0).text("vorticity, m/s"));
+    ui.add(egui::Slider::new(&mut settings.viscosity, 0.0..=0.5).text("XSPH viscosity"));
 }
 
 /// The wind's speed and heading in the horizontal and its gusts; a button adds a [`Wind`] if
