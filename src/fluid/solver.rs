@@ -338,8 +338,8 @@ impl FluidSolver {
     /// iterations its share of the density sweeps (the fluid's own budget of
     /// `substeps x iterations` sweeps per step spread over the cloth's iterations, at least
     /// one in each cloth substep), its colliders and its contacts with the cloth's
-    /// triangles, both ways (`cloth_coupling.rs`), before the cloth's own constraints. A bad setting or `dt` is refused by the cloth, and nothing
-    /// moves.
+    /// triangles, both ways (`cloth_coupling.rs`), before the cloth's own constraints. A
+    /// bad setting or `dt` is refused by the cloth, and nothing moves.
     pub fn step_with_cloth(
         &mut self,
         cloth: &mut ClothSolver,
