@@ -119,7 +119,9 @@ fn a_ring_of_cloth_rests_on_a_dome_without_stretching() {
 /// radius and friction, off centre by a random amount (the longer side never heavier than
 /// the capstan friction holds): each comes to rest hanging over the bar, and no edge is
 /// ever stretched past 10% after the first second. (Measured as above: the largest strain
-/// 5.1%, 3.9% and 4.9%, 3.0 to 3.6% at the end; 5.0%, 6.3% and 6.8% with the colliders
+/// 3.3%, 2.7% and 4.4%, 1.9 to 3.1% at the end, its worst edges compressed where the strip
+/// wraps the bar; 5.1%, 3.9% and 4.9% when a strip's outer edge was taken for a rim, as by
+/// `rims.rs` before its test looked across each edge; 5.0%, 6.3% and 6.8% with the colliders
 /// projected last in each iteration. A strip may slide towards its longer side before it
 /// stops: it lands flat, and the friction that holds it grows with the angle it wraps round
 /// the bar, `exp(mu theta)`, as its ends fall.)

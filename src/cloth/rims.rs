@@ -25,8 +25,9 @@ use bevy::math::{Vec3, Vec3A};
 
 use super::model::boundary_edges;
 
-/// The mean cosine between a boundary loop's contraction (`c - x_i`) and the direction from
-/// `x_i` into the cloth beside it, above which the loop encloses the cloth and is no rim.
+/// The mean cosine between the inside of a boundary loop (in its plane, to the left of each
+/// edge as the loop is walked) and the direction into the cloth beside the edge, above which
+/// the loop encloses the cloth and is no rim.
 const ENCLOSES_COS: f32 = 0.5;
 
 /// No particle moves farther than this times the rim's excess length in one projection (a
@@ -92,15 +93,24 @@ pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
             continue;
         }
         let points: Vec<Vec3> = loop_particles.iter().map(|&i| rest[i as usize]).collect();
-        let centroid = points.iter().copied().sum::<Vec3>() / points.len() as f32;
-        // Into the cloth: from the edge's midpoint to the centroid of the triangle beside it.
+        // The loop's plane, oriented by the walk: the inside of the loop lies to the left of
+        // each edge, `normal x (q - p)`. The cloth beside a rim lies to its right (a hole in a
+        // sheet) or out of its plane (the end of a tube); beside the outer edge of a sheet,
+        // to its left, whatever the sheet's shape (a long strip too).
+        let area: Vec3 = (0..points.len())
+            .map(|k| points[k].cross(points[(k + 1) % points.len()]))
+            .sum();
+        let normal = area.normalize_or_zero();
         let mut cos_sum = 0.0;
         for (k, &t) in beside.iter().enumerate() {
             let (p, q) = (points[k], points[(k + 1) % points.len()]);
             let mid = (p + q) * 0.5;
             let tri = triangles[t as usize].map(|i| rest[i as usize]);
-            let inward = ((tri[0] + tri[1] + tri[2]) / 3.0 - mid).normalize_or_zero();
-            cos_sum += (centroid - mid).normalize_or_zero().dot(inward);
+            // Across the edge only: beside a long thin triangle the centroid lies mostly along it.
+            let along = (q - p).normalize_or_zero();
+            let into = (tri[0] + tri[1] + tri[2]) / 3.0 - mid;
+            let inward = (into - along * along.dot(into)).normalize_or_zero();
+            cos_sum += normal.cross(along).normalize_or_zero().dot(inward);
         }
         if cos_sum / beside.len() as f32 > ENCLOSES_COS {
             continue;
@@ -204,6 +214,28 @@ mod tests {
     fn a_sheet_has_no_rim_and_a_poncho_has_its_collar() {
         let sheet = GridDesc::square(1.0, 9, Vec3::ZERO).mesh();
         assert!(find_rims(&sheet.positions, &triangles(&sheet.indices)).is_empty());
+        // Long strips of random proportions and orientation: their edge encloses the cloth
+        // however far the ends are from the centroid (a test by the centroid's direction
+        // took a strip of 5 x 49 for a rim, and its limit pulled the strip into a bar).
+        let mut state = 0x1234_5678_9abc_def1;
+        for _ in 0..20 {
+            let across = 2 + (next(&mut state) * 6.0) as u32;
+            let along = 10 + (next(&mut state) * 90.0) as u32;
+            let grid = GridDesc {
+                size: bevy::math::Vec2::new(0.05 + next(&mut state), 1.0 + 3.0 * next(&mut state)),
+                vertices: bevy::math::UVec2::new(across, along),
+                orientation: Quat::from_euler(
+                    bevy::math::EulerRot::XYZ,
+                    next(&mut state) * 6.0,
+                    next(&mut state) * 6.0,
+                    next(&mut state) * 6.0,
+                ),
+                origin: Vec3::new(next(&mut state), next(&mut state), next(&mut state)),
+            };
+            let strip = grid.mesh();
+            let rims = find_rims(&strip.positions, &triangles(&strip.indices));
+            assert!(rims.is_empty(), "{across} x {along}: {} rims", rims.len());
+        }
         let desc = PonchoDesc::default();
         let poncho = desc.mesh().unwrap();
         let rims = find_rims(&poncho.positions, &triangles(&poncho.indices));

@@ -31,6 +31,9 @@ pub struct PonchoRun {
     pub deepest_penetration: f32,
     /// The largest structural strain of every step after the first [`SETTLE_SECONDS`].
     pub step_max_strain: Vec<f32>,
+    /// The largest structural strain of any step after the first second (the poncho has
+    /// landed on the character; the other figures start at [`SETTLE_SECONDS`]).
+    pub strain_max_after_first_second: f32,
     /// The largest stretch (`(len - rest) / rest`, 0 if no edge is longer than at rest) of
     /// every step after the first [`SETTLE_SECONDS`].
     pub step_max_stretch: Vec<f32>,
@@ -94,6 +97,7 @@ struct S3Line {
     deepest_penetration: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
+    strain_max_after_first_second: f32,
     step_max_stretch_median: f32,
     step_max_compression_median: f32,
     edge_strain_p999: f32,
@@ -147,6 +151,7 @@ impl PonchoRun {
             deepest_penetration: self.deepest_penetration,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
+            strain_max_after_first_second: self.strain_max_after_first_second,
             step_max_stretch_median: median_f32(&self.step_max_stretch),
             step_max_compression_median: median_f32(&self.step_max_compression),
             edge_strain_p999: self.edge_strain_percentile(0.999),
@@ -442,6 +447,10 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
                     run.deepest_penetration = run.deepest_penetration.max(-d);
                 }
             }
+        }
+        if run.steps > 60 {
+            run.strain_max_after_first_second =
+                run.strain_max_after_first_second.max(sim.strain().max);
         }
         if !settled {
             continue;
