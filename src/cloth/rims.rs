@@ -236,6 +236,38 @@ mod tests {
             let rims = find_rims(&strip.positions, &triangles(&strip.indices));
             assert!(rims.is_empty(), "{across} x {along}: {} rims", rims.len());
         }
+        // Tubes of random size and orientation (a sleeve): both ends are rims, the cloth
+        // beside them out of their plane.
+        for _ in 0..10 {
+            let (sectors, rings) = (
+                6 + (next(&mut state) * 30.0) as u32,
+                2 + (next(&mut state) * 20.0) as u32,
+            );
+            let (radius, length) = (0.02 + next(&mut state), 0.05 + next(&mut state));
+            let turn = Quat::from_euler(
+                bevy::math::EulerRot::XYZ,
+                next(&mut state) * 6.0,
+                next(&mut state) * 6.0,
+                next(&mut state) * 6.0,
+            );
+            let mut positions = Vec::new();
+            for r in 0..rings {
+                for k in 0..sectors {
+                    let a = k as f32 / sectors as f32 * std::f32::consts::TAU;
+                    let y = length * r as f32 / (rings - 1) as f32;
+                    positions.push(turn * Vec3::new(radius * a.cos(), y, radius * a.sin()));
+                }
+            }
+            let mut indices = Vec::new();
+            for r in 0..rings - 1 {
+                for k in 0..sectors {
+                    let (a, b) = (r * sectors + k, r * sectors + (k + 1) % sectors);
+                    indices.extend([a, a + sectors, b, b, a + sectors, b + sectors]);
+                }
+            }
+            let rims = find_rims(&positions, &triangles(&indices));
+            assert_eq!(rims.len(), 2, "tube of {sectors} x {rings}");
+        }
         let desc = PonchoDesc::default();
         let poncho = desc.mesh().unwrap();
         let rims = find_rims(&poncho.positions, &triangles(&poncho.indices));
