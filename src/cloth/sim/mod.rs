@@ -12,7 +12,7 @@ use super::mass_spring::SpringSet;
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::rest_paths::RestPaths;
-use super::rims::{Rim, find_rims};
+use super::rims::{Rim, find_rims, find_rings};
 use super::self_collision::SelfCollision;
 use super::settings::{AdaptiveSubsteps, SolverMethod, SolverSettings};
 use super::state::{ClothState, inverse_mass};
@@ -123,7 +123,8 @@ pub struct ClothSolver {
     drag: Option<Pin>,
     /// Built the first time a step asks for a volume constraint (or its error).
     volume: Option<Result<VolumeConstraint, ClothError>>,
-    /// The rims of the cloth's holes, their lengths limited (`rims.rs`).
+    /// The rims of the cloth's holes and the rings next to them, their lengths limited
+    /// (`rims.rs`).
     rims: Vec<Rim>,
     /// Distances along the cloth at rest, built the first time tethers are made.
     rest_paths: Option<RestPaths>,
@@ -168,7 +169,10 @@ impl ClothSolver {
             .filter(|e| e.kind == EdgeKind::Structural)
             .collect();
         let stretch_limits = straight_line_limits(&model.rest_positions, &structural);
-        let rims = find_rims(&model.rest_positions, &model.triangles);
+        let mut rims = find_rims(&model.rest_positions, &model.triangles);
+        let pairs: Vec<[u32; 2]> = structural.iter().map(|e| e.particles).collect();
+        let rings = find_rings(&model.rest_positions, &pairs, &rims);
+        rims.extend(rings);
         let limit_batches = PairBatches::new(
             stretch_limits.iter().map(|l| (l.particles, l.length)),
             n,
