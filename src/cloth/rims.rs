@@ -118,7 +118,14 @@ pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
             let along = (q - p).normalize_or_zero();
             let into = (tri[0] + tri[1] + tri[2]) / 3.0 - mid;
             let inward = (into - along * along.dot(into)).normalize_or_zero();
-            cos_sum += normal.cross(along).normalize_or_zero().dot(inward);
+            // Each edge's vote counts as far as its triangle lies in the loop's plane: the
+            // triangles beside a tube's end stand across it, however skewed their cells.
+            let flat = (tri[1] - tri[0])
+                .cross(tri[2] - tri[0])
+                .normalize_or_zero()
+                .dot(normal)
+                .powi(2);
+            cos_sum += flat * normal.cross(along).normalize_or_zero().dot(inward);
         }
         if cos_sum / beside.len() as f32 > ENCLOSES_COS {
             continue;
@@ -394,17 +401,18 @@ mod tests {
     #[test]
     fn the_rings_next_to_a_tubes_rims_are_closed_loops_of_its_edges() {
         let mut state = 0x0bad_cafe_1234_5678;
-        for _ in 0..10 {
+        for _ in 0..40 {
             let (sectors, rings) = (
-                8 + (next(&mut state) * 30.0) as u32,
+                5 + (next(&mut state) * 30.0) as u32,
                 2 + (next(&mut state) * 10.0) as u32,
             );
             let radius = 0.05 + next(&mut state);
-            // Cells about as tall as they are wide, as a tube's mesh has.
-            let height = std::f32::consts::TAU * radius / sectors as f32 * (0.5 + next(&mut state));
+            // Cells from a twentieth as tall as they are wide to half again as tall.
+            let height =
+                std::f32::consts::TAU * radius / sectors as f32 * (0.05 + 1.45 * next(&mut state));
             let mut positions = Vec::new();
             for r in 0..rings {
-                let turn = 0.3 * next(&mut state);
+                let turn = 0.5 * next(&mut state);
                 for k in 0..sectors {
                     let a = (k as f32 + turn) / sectors as f32 * std::f32::consts::TAU;
                     positions.push(Vec3::new(
