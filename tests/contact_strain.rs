@@ -27,6 +27,22 @@ fn settle(sim: &mut ClothSolver, collider: &SolverCollider) -> f32 {
     settle_with(sim, collider, &SolverSettings::default())
 }
 
+/// An upright capsule of `radius`, its centre at the origin and its dome's centre at y = 0.3.
+fn upright_capsule(radius: f32, friction: f32) -> SolverCollider {
+    let mut capsule = SolverCollider::fixed(
+        SolverShape::Capsule {
+            radius,
+            half_length: 0.3,
+        },
+        RigidPose {
+            translation: Vec3A::ZERO,
+            rotation: Quat::IDENTITY,
+        },
+    );
+    capsule.material.friction = friction;
+    capsule
+}
+
 /// A flat annulus in the XZ plane at height `y`: `rings` rings of `sectors` particles from
 /// radius `inner` to `outer` (see [`collar`]).
 fn annulus(
@@ -62,17 +78,7 @@ fn a_ring_of_cloth_rests_on_a_dome_without_stretching() {
         let (positions, indices) = annulus(inner, inner + 0.15, 8, 40, top + 0.02, &mut rng);
         let model = ClothModel::from_triangles(&positions, &indices, 0.25).unwrap();
         let mut sim = ClothSolver::new(model);
-        let mut capsule = SolverCollider::fixed(
-            SolverShape::Capsule {
-                radius,
-                half_length: 0.3,
-            },
-            RigidPose {
-                translation: Vec3A::ZERO,
-                rotation: Quat::IDENTITY,
-            },
-        );
-        capsule.material.friction = 0.3 + 0.4 * rng.next();
+        let capsule = upright_capsule(radius, 0.3 + 0.4 * rng.next());
         let worst = settle(&mut sim, &capsule);
         let rim_height = sim.state().positions[..40].iter().map(|p| p.y).sum::<f32>() / 40.0;
         eprintln!(
@@ -225,17 +231,7 @@ fn a_collar_rests_on_a_dome_without_stretching() {
         profile.extend((1..=12).map(|k| (tube, start - edge * k as f32)));
         let sectors = (std::f32::consts::TAU * radius / edge) as u32;
         let (positions, indices) = collar(&profile, sectors, &mut rng);
-        let mut capsule = SolverCollider::fixed(
-            SolverShape::Capsule {
-                radius,
-                half_length: 0.3,
-            },
-            RigidPose {
-                translation: Vec3A::ZERO,
-                rotation: Quat::IDENTITY,
-            },
-        );
-        capsule.material.friction = friction;
+        let capsule = upright_capsule(radius, friction);
         for (settings, bound) in [(SolverSettings::default(), 0.05), (garment, 0.015)] {
             let model = ClothModel::from_triangles(&positions, &indices, 0.25).unwrap();
             let mut sim = ClothSolver::new(model);

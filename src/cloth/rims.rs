@@ -1,5 +1,5 @@
-//! Rim limits: the rim of a hole in the cloth (a collar, a cuff, the end of a sleeve) is never
-//! longer than at rest.
+//! Rim limits: the rim of a hole in the cloth (a collar, a cuff, the end of a sleeve), and the
+//! two rings of cloth next to it, are never longer than at rest.
 //!
 //! A ring of cloth that rests on a dome or a cone (a collar on the shoulders) carries the
 //! weight below it as hoop tension. Stretched uniformly, the ring must move towards its axis
@@ -43,7 +43,8 @@ const RINGS_PER_RIM: u32 = 2;
 /// a surface that leaves it little room, has a short lever and would otherwise jump).
 const MAX_MOVE: f32 = 0.5;
 
-/// A closed boundary loop of the cloth around a hole, its length limited to its rest length.
+/// A closed loop of the cloth's edges, its length limited to its rest length: the boundary
+/// round a hole ([`find_rims`]) or a ring next to it ([`find_rings`]).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Rim {
     /// The loop's particles, in order round it.
@@ -130,9 +131,7 @@ pub(crate) fn find_rims(rest: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Rim> {
         if cos_sum / beside.len() as f32 > ENCLOSES_COS {
             continue;
         }
-        let rest_length = (0..points.len())
-            .map(|k| points[k].distance(points[(k + 1) % points.len()]))
-            .sum();
+        let rest_length = loop_length(rest, &loop_particles);
         rims.push(Rim {
             particles: loop_particles,
             rest_length,
@@ -196,12 +195,7 @@ pub(crate) fn find_rings(rest: &[Vec3], edges: &[[u32; 2]], rims: &[Rim]) -> Vec
             for &i in &ordered {
                 ringed[i as usize] = true;
             }
-            let rest_length = (0..ordered.len())
-                .map(|m| {
-                    let (a, b) = (ordered[m], ordered[(m + 1) % ordered.len()]);
-                    rest[a as usize].distance(rest[b as usize])
-                })
-                .sum();
+            let rest_length = loop_length(rest, &ordered);
             rings.push(Rim {
                 particles: ordered,
                 rest_length,
@@ -210,6 +204,16 @@ pub(crate) fn find_rings(rest: &[Vec3], edges: &[[u32; 2]], rims: &[Rim]) -> Vec
         }
     }
     rings
+}
+
+/// The length of the closed loop through `particles` at the positions `rest`.
+fn loop_length(rest: &[Vec3], particles: &[u32]) -> f32 {
+    (0..particles.len())
+        .map(|m| {
+            let (a, b) = (particles[m], particles[(m + 1) % particles.len()]);
+            rest[a as usize].distance(rest[b as usize])
+        })
+        .sum()
 }
 
 /// `ring`'s particles in order round it, if each is joined to exactly two others at `level`
