@@ -137,6 +137,9 @@ pub struct ClothSolver {
     adaptive_calm: u32,
     /// The state before an adaptive step, to undo it.
     adaptive_backup: ClothState,
+    /// The contacts before an adaptive step (friction's anchors move with the colliders'
+    /// surfaces in every substep), to undo them with the state.
+    adaptive_contacts_backup: ContactScratch,
     /// Buffers of the order-free edge projection (closed cloth).
     jacobi: JacobiScratch,
     /// The wind at each particle, from the last [`ClothSolver::set_wind`].
@@ -238,6 +241,7 @@ impl ClothSolver {
             adaptive_substeps: 0,
             adaptive_calm: 0,
             adaptive_backup: ClothState::default(),
+            adaptive_contacts_backup: ContactScratch::default(),
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
@@ -836,9 +840,10 @@ impl ClothSolver {
     }
 
     /// One fixed step under [`SolverSettings::adaptive`]: the step runs at the chosen count;
-    /// if it ends above the target strain it is undone and run again with more substeps
-    /// (up to the maximum), so every step that can meet the target does. The count then
-    /// goes down as [`AdaptiveSubsteps::next`] says. [`ClothSolver::last_substeps`] counts every
+    /// if it ends above the target strain it is undone (the state, and the contacts with
+    /// friction's anchors, which every substep moves with the colliders' surfaces) and run
+    /// again with more substeps (up to the maximum), so every step that can meet the target
+    /// does. The count then goes down as [`AdaptiveSubsteps::next`] says. [`ClothSolver::last_substeps`] counts every
     /// substep run, undone ones included (the step's cost).
     fn step_adaptive(
         &mut self,
@@ -859,6 +864,7 @@ impl ClothSolver {
         }
         .clamp(lo, hi);
         self.adaptive_backup.clone_from(&self.state);
+        self.adaptive_contacts_backup.clone_from(&self.contacts);
         let mut run = 0;
         loop {
             self.step_substeps(&chosen, acceleration, dt, join, None);
@@ -868,6 +874,7 @@ impl ClothSolver {
             if next > chosen.substeps && strain.is_finite() {
                 // Over the target: undo the step and run it again with more.
                 self.state.clone_from(&self.adaptive_backup);
+                self.contacts.clone_from(&self.adaptive_contacts_backup);
                 chosen.substeps = next;
                 continue;
             }
