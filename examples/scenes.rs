@@ -7,7 +7,7 @@
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
-//!     [--adaptive 0.01] [--fixed-substeps]
+//!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
 //! cargo run --release --example scenes -- pour [--substeps 16] [--iterations 4] [--frames 360] [--runs 3]
 //! ```
@@ -35,6 +35,10 @@
 //! `--substeps` throughout, `--adaptive T` holds strain `T` instead. It reports the strain at
 //! the end (`max_strain`) and the largest after any frame (`largest_strain`), and the mean
 //! substep count.
+
+//! `--exact-edges CG` (any scene) solves the structural edges exactly at the end of every
+//! substep, one Gauss-Newton step of at most `CG` conjugate-gradient iterations
+//! (`SolverSettings::exact_edges`).
 //!
 //! `pour` is the `water` example's scene (`drape_scenes::water::Pour`): a jet of 600
 //! particles poured into a sheet hung from four posts, cloth and water stepped together
@@ -62,7 +66,9 @@
 
 use bevy::math::Vec3;
 use bevy_drape::cloth::plugin::DrapeSettings;
-use bevy_drape::cloth::{AdaptiveSubsteps, Gusts, PonchoDesc, SolverMethod, SolverSettings};
+use bevy_drape::cloth::{
+    AdaptiveSubsteps, ExactEdges, Gusts, PonchoDesc, SolverMethod, SolverSettings,
+};
 use drape_scenes::poncho::{
     COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, headless_app, run_app,
     run_headless,
@@ -134,6 +140,12 @@ fn run() -> Result<(), String> {
                 settings.adaptive = Some(AdaptiveSubsteps::target(parse(&value()?)?));
             }
             "--fixed-substeps" => settings.adaptive = None,
+            "--exact-edges" => {
+                settings.exact_edges = Some(ExactEdges {
+                    cg_iterations: parse(&value()?)?,
+                    ..ExactEdges::default()
+                });
+            }
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
             "--self-collision" => settings.self_collision = true,

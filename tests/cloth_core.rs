@@ -367,6 +367,25 @@ fn bad_input_gives_typed_errors_and_warnings() {
         ..one_sweep
     };
     assert!(one_sweep_no_long_range.validate().is_ok());
+    // An exact edge solve without a step or an iteration is refused, and the step with it
+    // leaves the cloth as it was.
+    let no_solve = SolverSettings {
+        exact_edges: Some(bevy_drape::cloth::ExactEdges {
+            newton_steps: 1,
+            cg_iterations: 0,
+        }),
+        ..Default::default()
+    };
+    assert!(matches!(
+        no_solve.validate(),
+        Err(ClothError::InvalidSetting {
+            name: "exact_edges",
+            ..
+        })
+    ));
+    let before = sim.state().positions.clone();
+    assert!(sim.step(&no_solve, Vec3::NEG_Y, 1.0 / 60.0).is_err());
+    assert_eq!(sim.state().positions, before);
 }
 
 #[test]

@@ -10,6 +10,7 @@ pub(crate) mod constraints;
 pub(crate) mod damping;
 pub(crate) mod debug_colors;
 pub(crate) mod embedding;
+pub(crate) mod fast_projection;
 pub(crate) mod flat_layout;
 pub(crate) mod garment;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
@@ -41,7 +42,9 @@ pub use embedding::{EmbeddedVertex, Embedding};
 pub use garment::{PonchoDesc, to_obj};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
-pub use settings::{AdaptiveSubsteps, DampingMode, DivergenceBounds, SolverMethod, SolverSettings};
+pub use settings::{
+    AdaptiveSubsteps, DampingMode, DivergenceBounds, ExactEdges, SolverMethod, SolverSettings,
+};
 pub(crate) use sim::SubstepCoupling;
 pub use sim::{
     ClothSolver, Divergence, Join, OneThread, Pin, StepTimings, StrainStats, with_helper,

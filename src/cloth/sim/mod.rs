@@ -7,6 +7,7 @@ use bevy::math::{Vec3, Vec3A, Vec4};
 use super::air::{GustField, WindField, air_accelerations};
 use super::batch::PairBatches;
 use super::constraints::Tether;
+use super::fast_projection::FastProjection;
 use super::isometric_bending::{IsometricPair, PreparedIsometric};
 use super::mass_spring::SpringSet;
 use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
@@ -128,6 +129,9 @@ pub struct ClothSolver {
     rims: Vec<Rim>,
     /// Distances along the cloth at rest, built the first time tethers are made.
     rest_paths: Option<RestPaths>,
+    /// The fast projection of the structural edges, built the first time a step asks for it
+    /// ([`SolverSettings::exact_edges`]).
+    fast_projection: Option<FastProjection>,
     /// Built the first time a step asks for self-collision.
     self_collision: Option<SelfCollision>,
     self_contacts: usize,
@@ -235,6 +239,7 @@ impl ClothSolver {
             drag: None,
             volume: None,
             rest_paths: None,
+            fast_projection: None,
             rims,
             self_collision: None,
             self_contacts: 0,

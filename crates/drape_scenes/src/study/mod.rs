@@ -588,6 +588,7 @@ pub fn fewest_fixed_substeps_for_strain(
         let settings = SolverSettings {
             substeps: s,
             adaptive: None,
+            exact_edges: None,
             ..*settings
         };
         meets_strain(
