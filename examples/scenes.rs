@@ -35,7 +35,7 @@
 //! `--substeps` throughout, `--adaptive T` holds strain `T` instead. It reports the strain at
 //! the end (`max_strain`) and the largest after any frame (`largest_strain`), and the mean
 //! substep count.
-
+//!
 //! `--exact-edges CG` (any scene) solves the structural edges exactly at the end of every
 //! substep, one Gauss-Newton step of at most `CG` conjugate-gradient iterations
 //! (`SolverSettings::exact_edges`).

@@ -38,8 +38,8 @@ impl FastProjection {
     }
 
     /// `newton` Gauss-Newton steps of at most `cg` conjugate-gradient iterations each;
-    /// particles with `w = 0` stay. Returns the largest `|C_e| / L_e` before the last step.
-    pub(crate) fn project(&mut self, x: &mut [Vec3A], w: &[f32], newton: u32, cg: u32) -> f32 {
+    /// particles with `w = 0` stay.
+    pub(crate) fn project(&mut self, x: &mut [Vec3A], w: &[f32], newton: u32, cg: u32) {
         let m = self.edges.len();
         let n = x.len();
         self.normals.resize(m, Vec3A::ZERO);
@@ -56,9 +56,8 @@ impl FastProjection {
         }
         self.particles.clear();
         self.particles.resize(n, Vec3A::ZERO);
-        let mut worst = 0.0f32;
         for _ in 0..newton {
-            worst = 0.0;
+            let mut worst = 0.0f32;
             for (k, &([a, b], rest)) in self.edges.iter().enumerate() {
                 let d = x[a as usize] - x[b as usize];
                 let len = d.length();
@@ -129,7 +128,6 @@ impl FastProjection {
                 scale *= 0.5;
             }
         }
-        worst
     }
 
     /// The largest `|C_e| / L_e`.

@@ -848,8 +848,9 @@ impl ClothSolver {
     /// if it ends above the target strain it is undone (the state, and the contacts with
     /// friction's anchors, which every substep moves with the colliders' surfaces) and run
     /// again with more substeps (up to the maximum), so every step that can meet the target
-    /// does. The count then goes down as [`AdaptiveSubsteps::next`] says. [`ClothSolver::last_substeps`] counts every
-    /// substep run, undone ones included (the step's cost).
+    /// does. The count then goes down as [`AdaptiveSubsteps::next`] says.
+    /// [`ClothSolver::last_substeps`] counts every substep run, undone ones included (the
+    /// step's cost).
     fn step_adaptive(
         &mut self,
         settings: &SolverSettings,

@@ -20,13 +20,12 @@
 //!    mass-spring, self-collision and the colliders last. After the last iteration, with
 //!    [`SolverSettings::exact_edges`], the structural edges are solved exactly
 //!    (`fast_projection.rs`); then the closing collider pass moves anything left inside a
-//!    collider onto its surface. Bending in every
-//!    iteration rather than the first alone costs 28% more per frame on S1 at N = 64, 8 x 2
-//!    (1.38 to 1.77 ms), and holds it tighter at equal cost (0.74% max strain, against 0.82%
-//!    for the first iteration alone at 10 x 2, 1.92 ms); the first alone also left a floor of
-//!    0.6 to 0.8% whatever the budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%,
-//!    0.43%, 0.50%). Bending in the last iteration alone costs what the first did and holds S1
-//!    as well, but leaves S2 with S1's cloth at N = 64 stretched 75% (bending after the edges
+//!    collider onto its surface. Bending in every iteration rather than the first alone
+//!    costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
+//!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration alone
+//!    at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
+//!    budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%, 0.43%, 0.50%). Bending in
+//!    the last iteration alone costs what the first did and holds S1 as well, but leaves S2 with S1's cloth at N = 64 stretched 75% (bending after the edges
 //!    pushes the sheet into the sphere every substep).
 //! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
 //!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
@@ -45,6 +44,7 @@ use super::timings::{Laps, StepTimings};
 use crate::cloth::constraints::{Projection, project_bending};
 use crate::cloth::fast_projection::FastProjection;
 use crate::cloth::mass_spring::auto_substeps;
+use crate::cloth::model::EdgeKind;
 use crate::cloth::rims::project_rim;
 use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
@@ -473,7 +473,7 @@ impl ClothSolver {
                         model
                             .edges
                             .iter()
-                            .filter(|e| e.kind == crate::cloth::model::EdgeKind::Structural),
+                            .filter(|e| e.kind == EdgeKind::Structural),
                     )
                 });
                 projection.project(x, w, exact.newton_steps, exact.cg_iterations);
