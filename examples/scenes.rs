@@ -7,7 +7,7 @@
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
-//!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20]
+//!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20] [--no-exact-edges]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
 //! cargo run --release --example scenes -- pour [--substeps 16] [--iterations 4] [--frames 360] [--runs 3]
 //! ```
@@ -37,8 +37,9 @@
 //! substep count.
 //!
 //! `--exact-edges CG` (any scene) solves the structural edges exactly at the end of every
-//! substep, one Gauss-Newton step of at most `CG` conjugate-gradient iterations
-//! (`SolverSettings::exact_edges`).
+//! substep in which the cloth touches a collider with one Gauss-Newton step of at most `CG`
+//! conjugate-gradient iterations (`SolverSettings::exact_edges`; on by default, with 20, in
+//! every scene but S2); `--no-exact-edges` leaves them to the iterations.
 //!
 //! `pour` is the `water` example's scene (`drape_scenes::water::Pour`): a jet of 600
 //! particles poured into a sheet hung from four posts, cloth and water stepped together
@@ -146,6 +147,7 @@ fn run() -> Result<(), String> {
                     ..ExactEdges::default()
                 });
             }
+            "--no-exact-edges" => settings.exact_edges = None,
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
             "--self-collision" => settings.self_collision = true,

@@ -573,7 +573,14 @@ fn main() -> Result<(), Box<dyn Error>> {
 
     // 6. The main scene: strain against cost for every budget and motion.
     let (budgets, motions, steps) = if quick {
-        (vec![(4, 2), (8, 2)], vec![CharacterMotion::InPlace], 180)
+        (
+            study::main_scene_budgets()
+                .into_iter()
+                .filter(|b| b.substeps <= 8 && b.iterations == 2)
+                .collect(),
+            vec![CharacterMotion::InPlace],
+            180,
+        )
     } else {
         (
             study::main_scene_budgets(),
@@ -583,15 +590,16 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
     let points = study::main_scene_points(&budgets, &motions, steps)?;
     let mut csv = String::from(
-        "motion,substeps,iterations,stable,ms_per_simulated_second,step_max_strain_median,step_max_strain_max,edge_strain_p999\n",
+        "motion,substeps,iterations,exact_edges,stable,ms_per_simulated_second,step_max_strain_median,step_max_strain_max,edge_strain_p999\n",
     );
     for p in &points {
         writeln!(
             csv,
-            "{},{},{},{},{:.2},{:.5},{:.5},{:.5}",
+            "{},{},{},{},{},{:.2},{:.5},{:.5},{:.5}",
             p.motion.name(),
-            p.substeps,
-            p.iterations,
+            p.budget.substeps,
+            p.budget.iterations,
+            p.budget.exact_edges,
             p.stable,
             p.ms_per_second,
             p.step_max_strain_median,
@@ -599,10 +607,11 @@ fn main() -> Result<(), Box<dyn Error>> {
             p.edge_strain_p999
         )?;
         println!(
-            "  S3 {:>9} {:>2} x {}: {:>7.1} ms/s, step max strain median {:.1}% worst {:.1}%, p99.9 edge {:.2}%",
+            "  S3 {:>9} {:>2} x {}{}: {:>7.1} ms/s, step max strain median {:.2}% worst {:.1}%, p99.9 edge {:.2}%",
             p.motion.name(),
-            p.substeps,
-            p.iterations,
+            p.budget.substeps,
+            p.budget.iterations,
+            if p.budget.exact_edges { " exact" } else { "" },
             p.ms_per_second,
             100.0 * p.step_max_strain_median,
             100.0 * p.step_max_strain_max,
@@ -610,24 +619,34 @@ fn main() -> Result<(), Box<dyn Error>> {
         );
     }
     written.push(write_csv(&out, "s3_strain_vs_cost", &csv)?);
-    // One line per motion and iteration count, through its substep counts.
+    // One line per motion, iteration count and edge solve, through its substep counts.
     let s3_series = |value: fn(&study::MainScenePoint) -> f32| {
         let mut series = Vec::new();
         for (k, motion) in motions.iter().enumerate() {
-            for iterations in [2, 4] {
+            for (iterations, exact) in [(2, true), (2, false), (4, false)] {
                 let line: Vec<(f64, f64)> = points
                     .iter()
-                    .filter(|p| p.motion == *motion && p.iterations == iterations && p.stable)
+                    .filter(|p| {
+                        p.motion == *motion
+                            && p.budget.iterations == iterations
+                            && p.budget.exact_edges == exact
+                            && p.stable
+                    })
                     .map(|p| (p.ms_per_second, value(p) as f64))
                     .collect();
                 if line.is_empty() {
                     continue;
                 }
-                let name = format!("{} ({iterations} iterations)", motion.name());
-                series.push(if iterations == 2 {
-                    Series::line(name, COLORS[k % COLORS.len()], line)
+                let name = if exact {
+                    format!("{} ({iterations} iterations, exact edges)", motion.name())
                 } else {
-                    Series::scatter(name, COLORS[k % COLORS.len()], line)
+                    format!("{} ({iterations} iterations)", motion.name())
+                };
+                let color = COLORS[k % COLORS.len()];
+                series.push(if iterations == 2 {
+                    Series::line(name, color, line)
+                } else {
+                    Series::scatter(name, color, line)
                 });
             }
         }

@@ -3,7 +3,7 @@
 
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy::math::{UVec2, Vec2};
-use bevy_drape::cloth::{ClothModel, ClothSolver, ExactEdges, GridDesc, SolverSettings};
+use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverSettings};
 use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape};
 
 const DT: f32 = 1.0 / 60.0;
@@ -61,13 +61,13 @@ fn annulus(
 
 /// Annuli of random size dropped onto vertical capsules of random radius and friction,
 /// their holes narrower than the capsule: at the default budget each rests on the dome with
-/// its skirt hanging round the capsule, and no edge is ever stretched past 10% after the first
+/// its skirt hanging round the capsule, and no edge is ever stretched past 6% after the first
 /// second. (Measured with `cargo test --release --test contact_strain -- --nocapture`: the
-/// three cases' largest strain 7.5%, 6.7% and 6.3%, 7.8%, 6.8% and 6.4% before the rings next
-/// to the rim were limited; the outer rings must fold to hang round the capsule, which is why
-/// `a_collar_rests_on_a_dome_without_stretching` is the garment that fits; 7.9%, 7.1% and
-/// 8.5% with the colliders
-/// projected last in each iteration; without the rim limit of `rims.rs`, 20%, 23% and 53%.)
+/// three cases' largest strain 3.5%, 4.3% and 4.1% with the structural edges solved exactly
+/// while touching (the default); 7.5%, 6.7% and 6.3% without; the outer rings must fold to
+/// hang round the capsule, which is why `a_collar_rests_on_a_dome_without_stretching` is the
+/// garment that fits; 7.9%, 7.1% and 8.5% with the colliders projected last in each
+/// iteration; without the rim limit of `rims.rs`, 20%, 23% and 53%.)
 #[test]
 fn a_ring_of_cloth_rests_on_a_dome_without_stretching() {
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
@@ -90,40 +90,27 @@ fn a_ring_of_cloth_rests_on_a_dome_without_stretching() {
             rim_height > 0.3 && rim_height < top,
             "case {case}: the rim at {rim_height} left the dome"
         );
-        assert!(worst < 0.10, "case {case}: strain {worst}");
+        assert!(worst < 0.06, "case {case}: strain {worst}");
     }
 }
 
 /// Strips of random width and density dropped across horizontal capsule bars of random
 /// radius and friction, off centre by a random amount (the longer side never heavier than
-/// the capstan friction holds): each comes to rest hanging over the bar, and no edge is
-/// ever stretched past 10% after the first second. (Measured as above: the largest strain
-/// 3.3%, 2.7% and 4.4%, 1.9 to 3.1% at the end, its worst edges compressed where the strip
-/// wraps the bar; 5.1%, 3.9% and 4.9% when a strip's outer edge was taken for a rim, as by
-/// `rims.rs` before its test looked across each edge; 5.0%, 6.3% and 6.8% with the colliders
-/// projected last in each iteration. A strip may slide towards its longer side before it
-/// stops: it lands flat, and the friction that holds it grows with the angle it wraps round
-/// the bar, `exp(mu theta)`, as its ends fall.)
+/// the capstan friction holds): at the default budget each comes to rest hanging over the
+/// bar, and no edge is ever stretched past 2% after the first second. (Measured as above:
+/// the largest strain 0.67%, 0.17% and 0.20%; without the structural edges solved exactly
+/// while touching ([`SolverSettings::exact_edges`] `None`), 3.3%, 2.7% and 4.4%, its worst
+/// edges compressed where the strip wraps the bar, bending against contact; 16 x 2 without
+/// them 2.6%, 1.2% and 1.6%, 24 x 2 1.5%, 0.9% and 1.3%; 5.0%, 6.3% and 6.8% with the
+/// colliders projected last in each iteration. A strip may slide towards its longer side
+/// before it stops: it lands flat, and the friction that holds it grows with the angle it
+/// wraps round the bar, `exp(mu theta)`, as its ends fall.)
 #[test]
 fn a_strip_hangs_over_a_bar_without_stretching() {
     for (case, worst) in hang_strips(&SolverSettings::default())
         .into_iter()
         .enumerate()
     {
-        assert!(worst < 0.10, "case {case}: strain {worst}");
-    }
-}
-
-/// The strips of [`a_strip_hangs_over_a_bar_without_stretching`] at 8 x 2 with the structural
-/// edges solved exactly in every substep ([`SolverSettings::exact_edges`]): each hangs over its
-/// bar with no edge past 2% after the first second. (Measured: 0.67%, 0.17% and 0.20%.)
-#[test]
-fn strips_hang_within_two_percent_with_exact_edges() {
-    let settings = SolverSettings {
-        exact_edges: Some(ExactEdges::default()),
-        ..SolverSettings::default()
-    };
-    for (case, worst) in hang_strips(&settings).into_iter().enumerate() {
         assert!(worst < 0.02, "case {case}: strain {worst}");
     }
 }
@@ -226,17 +213,22 @@ fn settle_with(sim: &mut ClothSolver, collider: &SolverCollider, settings: &Solv
 /// ring cannot hang round a capsule without folding: its outer rings must shrink by half).
 /// It rests on the dome carrying the tube's weight as hoop tension in the rings next to its
 /// rim. Measured (`cargo test --release --test contact_strain -- --nocapture`): the largest
-/// strain after the first second 3.8-4.6% at the default 8 x 2 and 0.58-0.69% at 16 x 4, the
-/// poncho's budget, with the rings next to the rim limited as it is (`rims.rs`); with only the
-/// rim limited, 5.4% and 1.9% (case 0). At 8 x 2 with the structural edges solved exactly in
-/// every substep ([`SolverSettings::exact_edges`]): 0.25-0.43%, held below 2%.
+/// strain after the first second at the default budget (8 x 2, the structural edges solved
+/// exactly while touching, [`SolverSettings::exact_edges`]) 0.25-0.43%, held below 2%.
+/// Without the exact edges, the rings next to the rim limited as it is (`rims.rs`) hold it at
+/// 3.8-4.6% at 8 x 2 and 0.58-0.69% at 16 x 4; with only the rim limited, 5.4% and 1.9%
+/// (case 0).
 #[test]
 fn a_collar_rests_on_a_dome_without_stretching() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let garment = SolverSettings {
+    let iterated = SolverSettings {
+        exact_edges: None,
+        ..SolverSettings::default()
+    };
+    let more_iterated = SolverSettings {
         substeps: 16,
         iterations: 4,
-        ..SolverSettings::default()
+        ..iterated
     };
     for case in 0..3 {
         let radius = 0.1 + 0.04 * rng.next();
@@ -260,14 +252,10 @@ fn a_collar_rests_on_a_dome_without_stretching() {
         let sectors = (std::f32::consts::TAU * radius / edge) as u32;
         let (positions, indices) = collar(&profile, sectors, &mut rng);
         let capsule = upright_capsule(radius, friction);
-        let exact = SolverSettings {
-            exact_edges: Some(ExactEdges::default()),
-            ..SolverSettings::default()
-        };
         for (settings, bound) in [
-            (SolverSettings::default(), 0.05),
-            (garment, 0.015),
-            (exact, 0.02),
+            (SolverSettings::default(), 0.02),
+            (iterated, 0.05),
+            (more_iterated, 0.015),
         ] {
             let model = ClothModel::from_triangles(&positions, &indices, 0.25).unwrap();
             let mut sim = ClothSolver::new(model);

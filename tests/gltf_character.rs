@@ -321,7 +321,10 @@ fn the_poncho_drapes_on_the_gltf_character_walking_through_the_world() {
         let world = app.world_mut();
         let attached = world.query::<&BoneProxyOf>().iter(world).count();
         if step > 0 {
-            assert_eq!(attached, proxies, "every proxy is on its joint");
+            assert_eq!(
+                attached, proxies,
+                "every proxy is on its joint (step {step})"
+            );
         }
         let chest = joint(world, "chest").translation();
         let character = world

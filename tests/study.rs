@@ -175,16 +175,31 @@ fn the_adaptive_count_rises_at_once_and_falls_after_calm_steps_within_its_bounds
     assert_eq!(count, 2);
 }
 
+/// S3 in place: the median step's largest strain and the 99.9th percentile edge fall as the
+/// substeps or the iterations grow, and 8 x 2 with the structural edges solved exactly while
+/// the poncho touches the body (the default) holds it tighter than 16 x 2 without them.
 #[test]
 fn the_main_scene_strain_falls_as_substeps_or_iterations_grow() {
     use drape_scenes::poncho::CharacterMotion;
-    let budgets = [(4, 2), (8, 2), (16, 2), (8, 4)];
+    use drape_scenes::study::MainSceneBudget;
+    let budget = |substeps, iterations, exact_edges| MainSceneBudget {
+        substeps,
+        iterations,
+        exact_edges,
+    };
+    let budgets = [
+        budget(4, 2, false),
+        budget(8, 2, false),
+        budget(16, 2, false),
+        budget(8, 4, false),
+        budget(8, 2, true),
+    ];
     let points = study::main_scene_points(&budgets, &[CharacterMotion::InPlace], 600)
         .expect("the scene's files load from the repository");
     for p in &points {
         println!(
-            "S3 {} x {}: step max strain median {:.3}, p99.9 {:.3}",
-            p.substeps, p.iterations, p.step_max_strain_median, p.edge_strain_p999
+            "S3 {:?}: step max strain median {:.4}, p99.9 {:.4}",
+            p.budget, p.step_max_strain_median, p.edge_strain_p999
         );
         assert!(p.stable);
     }
@@ -195,4 +210,6 @@ fn the_main_scene_strain_falls_as_substeps_or_iterations_grow() {
     assert!(p999(0) > p999(1) && p999(1) > p999(2));
     // Iterations: 8 x 4 against 8 x 2.
     assert!(median(3) < median(1) && p999(3) < p999(1));
+    // The exact edges at 8 x 2 against 16 x 2 without them.
+    assert!(median(4) < median(2) && p999(4) < p999(2));
 }

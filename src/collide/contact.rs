@@ -446,6 +446,11 @@ impl ContactScratch {
         self.anchors.fill(Anchor::NONE);
     }
 
+    /// Whether any particle touched a collider in the current (or last) substep.
+    pub(crate) fn touching(&self) -> bool {
+        self.contacts.iter().any(|c| c.is_some())
+    }
+
     /// How many particles touched a collider in the last substep.
     pub(crate) fn count(&self) -> usize {
         self.contacts.iter().filter(|c| c.is_some()).count()

@@ -85,11 +85,7 @@ impl ThinFeatureContacts {
                 b = b.grown(x[i as usize]);
                 motion = motion.max(v[i as usize].length() * dt);
             }
-            let grow = Vec3A::splat(motion + fall);
-            b = Aabb {
-                min: b.min - grow,
-                max: b.max + grow,
-            };
+            b = b.padded(motion + fall);
             cloth = cloth.union(b);
             b
         }));
@@ -97,15 +93,12 @@ impl ThinFeatureContacts {
             let SolverShape::TriangleMesh(mesh) = &collider.shape else {
                 continue;
             };
-            let reach = Vec3A::splat(collider.margin + thickness);
+            let reach = collider.margin + thickness;
             for vertex in mesh.thin_vertices() {
                 let path = Aabb::EMPTY
                     .grown(collider.start.transform_point(vertex))
-                    .grown(collider.end.transform_point(vertex));
-                let path = Aabb {
-                    min: path.min - reach,
-                    max: path.max + reach,
-                };
+                    .grown(collider.end.transform_point(vertex))
+                    .padded(reach);
                 if !path.overlaps(&cloth) {
                     continue;
                 }

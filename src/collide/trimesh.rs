@@ -55,6 +55,14 @@ impl Aabb {
         }
     }
 
+    /// The box grown by `by` on every side.
+    pub(crate) fn padded(self, by: f32) -> Self {
+        Self {
+            min: self.min - Vec3A::splat(by),
+            max: self.max + Vec3A::splat(by),
+        }
+    }
+
     /// Whether `p` is inside (boundary included).
     #[inline(always)]
     pub(crate) fn contains(&self, p: Vec3A) -> bool {

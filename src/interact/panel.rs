@@ -19,7 +19,7 @@ use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::plugin::{
     ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings, DrapeSettings,
 };
-use crate::cloth::settings::{DampingMode, SolverMethod};
+use crate::cloth::settings::{DampingMode, ExactEdges, SolverMethod};
 use crate::cloth::wind_plugin::Wind;
 use crate::collide::plugin::ClothCollider;
 use crate::fluid::FluidSettings;
@@ -402,6 +402,13 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
         SolverMethod::MassSpring => {}
         _ => {
             ui.checkbox(&mut solver.long_range_attachments, "long-range attachments");
+        }
+    }
+    if solver.method != SolverMethod::MassSpring {
+        let mut exact = solver.exact_edges.is_some();
+        ui.checkbox(&mut exact, "exact edges while touching a collider");
+        if exact != solver.exact_edges.is_some() {
+            solver.exact_edges = exact.then(ExactEdges::default);
         }
     }
     ui.add(

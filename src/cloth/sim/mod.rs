@@ -20,6 +20,7 @@ use super::state::{ClothState, inverse_mass};
 use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
 use crate::collide::contact::{Contact, ContactScratch};
+use crate::collide::edge_contacts::EdgeContacts;
 use crate::collide::thin::ThinFeatureContacts;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::{ClothError, ColliderError};
@@ -120,6 +121,8 @@ pub struct ClothSolver {
     colliders: Vec<SolverCollider>,
     contacts: ContactScratch,
     thin_contacts: ThinFeatureContacts,
+    /// The structural edges against thin spheres and capsules.
+    edge_contacts: EdgeContacts,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
     /// Built the first time a step asks for a volume constraint (or its error).
@@ -236,6 +239,7 @@ impl ClothSolver {
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
             thin_contacts: ThinFeatureContacts::default(),
+            edge_contacts: EdgeContacts::default(),
             drag: None,
             volume: None,
             rest_paths: None,

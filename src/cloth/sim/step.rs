@@ -7,7 +7,9 @@
 //!    (symplectic Euler; the hybrid's springs are the shear and bend ones only). Pins move to
 //!    their interpolated targets.
 //! 2. project, `iterations` times (once for mass-spring), in this order: colliders (planes
-//!    included) with friction on the positions and then self-collision, first in every
+//!    included; in the last iteration also the cloth's edges against the spheres and capsules
+//!    thin enough to pass between two particles, `collide/edge_contacts.rs`) with friction on
+//!    the positions and then self-collision, first in every
 //!    iteration for all but mass-spring (`collide/contact.rs`: the constraints after them carry
 //!    each push on within the iteration, and an iteration ends with the edges met); the
 //!    long-range constraints (stretch limits and tethers: XPBD and PBD if on, the hybrid only
@@ -18,9 +20,9 @@
 //!    the cloth's holes (with the long-range constraints, `rims.rs`), volume, bending pairs
 //!    (XPBD and PBD, their multipliers accumulated over the substep's iterations); for
 //!    mass-spring, self-collision and the colliders last. After the last iteration, with
-//!    [`SolverSettings::exact_edges`], the structural edges are solved exactly
-//!    (`fast_projection.rs`); then the closing collider pass moves anything left inside a
-//!    collider onto its surface. Bending in every iteration rather than the first alone
+//!    [`SolverSettings::exact_edges`] and while the cloth touches a collider, the structural
+//!    edges are solved exactly (`fast_projection.rs`); then the closing collider pass moves anything left inside a
+//!    collider onto its surface (the particles, then the edges against thin colliders). Bending in every iteration rather than the first alone
 //!    costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
 //!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration alone
 //!    at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
@@ -50,6 +52,7 @@ use crate::cloth::settings::{SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
 use crate::collide::SolverCollider;
 use crate::collide::contact::{ContactPass, ContactScratch};
+use crate::collide::edge_contacts::EdgeContacts;
 use crate::collide::thin::ThinFeatureContacts;
 
 /// What a solver method projects, per substep of length `h`.
@@ -212,12 +215,37 @@ impl ClothSolver {
             dt,
             settings.thickness,
         );
+        self.edge_contacts.begin_step(
+            colliders,
+            self.model
+                .edges
+                .iter()
+                .map(|e| (e.particles, e.rest_length)),
+            x,
+            v,
+            a,
+            dt,
+            settings.thickness,
+        );
+        // The exact edges' scratch memory, made before any step that may use it.
+        if settings.exact_edge_solve().is_some()
+            && !colliders.is_empty()
+            && self.fast_projection.is_none()
+        {
+            let structural = self
+                .model
+                .edges
+                .iter()
+                .filter(|e| e.kind == EdgeKind::Structural);
+            self.fast_projection = Some(FastProjection::new(structural, x.len()));
+        }
         let collider_pass = ColliderPass {
             colliders,
             triangles: &self.model.triangles,
             h_a: contact_push,
             thickness: settings.thickness,
             thin: self.thin_contacts.has_candidates(),
+            edges: self.edge_contacts.has_candidates(),
         };
         let mut t = StepTimings {
             contacts: laps.lap(),
@@ -312,6 +340,7 @@ impl ClothSolver {
                     x_prev,
                 );
                 self.thin_contacts.begin_substep();
+                self.edge_contacts.begin_substep(colliders, &self.contacts);
                 t.contacts += laps.lap();
             }
             let mut volume = match (settings.volume, self.volume.as_mut()) {
@@ -353,9 +382,15 @@ impl ClothSolver {
                 // within the iteration (see the module docs).
                 if !mass_spring {
                     if !colliders.is_empty() {
-                        collider_pass.project(
+                        // The edges against thin colliders in the last iteration only.
+                        let pass = ColliderPass {
+                            edges: collider_pass.edges && iteration + 1 == iterations,
+                            ..collider_pass
+                        };
+                        pass.project(
                             &mut self.contacts,
                             &mut self.thin_contacts,
+                            &mut self.edge_contacts,
                             (x, x_prev, v, w),
                             ContactPass::Iteration { friction_step },
                         );
@@ -456,6 +491,7 @@ impl ClothSolver {
                         collider_pass.project(
                             &mut self.contacts,
                             &mut self.thin_contacts,
+                            &mut self.edge_contacts,
                             (x, x_prev, v, w),
                             ContactPass::Iteration {
                                 friction_step: None,
@@ -465,17 +501,16 @@ impl ClothSolver {
                     }
                 }
             }
-            // The structural edges solved exactly (`fast_projection.rs`).
-            if let Some(exact) = settings.exact_edges.filter(|_| !mass_spring) {
-                let model = &self.model;
-                let projection = self.fast_projection.get_or_insert_with(|| {
-                    FastProjection::new(
-                        model
-                            .edges
-                            .iter()
-                            .filter(|e| e.kind == EdgeKind::Structural),
-                    )
-                });
+            // The structural edges solved exactly (`fast_projection.rs`), while the cloth
+            // touches a collider (the long-range attachments hold a cloth hanging from pins).
+            let touching = !colliders.is_empty()
+                && (self.contacts.touching()
+                    || self.thin_contacts.has_candidates()
+                    || self.edge_contacts.touched());
+            if let (Some(exact), Some(projection)) = (
+                settings.exact_edge_solve().filter(|_| touching),
+                self.fast_projection.as_mut(),
+            ) {
                 projection.project(x, w, exact.newton_steps, exact.cg_iterations);
                 t.constraints += laps.lap();
             }
@@ -484,6 +519,7 @@ impl ClothSolver {
                 collider_pass.project(
                     &mut self.contacts,
                     &mut self.thin_contacts,
+                    &mut self.edge_contacts,
                     (x, x_prev, v, w),
                     ContactPass::Closing,
                 );
@@ -586,6 +622,7 @@ struct Particles<'a> {
 }
 
 /// What a pass over the colliders needs besides the particles, fixed over a step.
+#[derive(Clone, Copy)]
 struct ColliderPass<'a> {
     colliders: &'a [SolverCollider],
     /// The cloth's triangles, for the thin features of triangle-mesh colliders.
@@ -597,14 +634,19 @@ struct ColliderPass<'a> {
     thickness: f32,
     /// Whether a thin feature may touch the cloth this step.
     thin: bool,
+    /// Whether the cloth's edges are to be projected against the thin spheres and capsules
+    /// (some may touch them this step; in the last iteration and the closing pass).
+    edges: bool,
 }
 
 impl ColliderPass<'_> {
-    /// Projects the particle contacts, then the thin features against the cloth's triangles.
+    /// Projects the particle contacts, then the thin features against the cloth's triangles,
+    /// then the cloth's edges against the thin spheres and capsules.
     fn project(
         &self,
         contacts: &mut ContactScratch,
         thin: &mut ThinFeatureContacts,
+        edges: &mut EdgeContacts,
         (x, x_prev, v, w): (&mut [Vec3A], &[Vec3A], &[Vec3A], &[f32]),
         pass: ContactPass,
     ) {
@@ -612,6 +654,13 @@ impl ColliderPass<'_> {
         contacts.project(c, x, x_prev, v, w, self.h_a, pass);
         if self.thin {
             thin.project(c, contacts, self.triangles, x, x_prev, w, self.thickness);
+        }
+        if self.edges {
+            let reach = |collider: &SolverCollider| match pass {
+                ContactPass::Iteration { .. } => collider.margin + self.thickness,
+                ContactPass::Closing => 0.0,
+            };
+            edges.project(c, x, x_prev, w, reach);
         }
     }
 }

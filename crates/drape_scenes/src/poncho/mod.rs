@@ -36,19 +36,6 @@ pub use run::{LOAD_TIMEOUT, PonchoRun, STRAIN_BIN, headless_app, run_app, run_he
 /// the character at 4 x 2.
 pub const COARSE_PONCHO_VERTICES: u32 = 17;
 
-/// Substeps per fixed step of the poncho ([`PonchoScene::solver`]). With
-/// [`PONCHO_ITERATIONS`] this is the budget that keeps the poncho inextensible where it rests
-/// on the body in every [`CharacterMotion`]: measured in one run (`cargo run --release
-/// --example scenes -- s3 --motion M --substeps S --iterations I`), the largest strain of any
-/// step after the first second 1.1-4.3% at 16 x 4 against 4.2-5.2% at the library's 8 x 2,
-/// and 1.3-15% at 12 x 3 or 12 x 4 (the hem's whip in self-contact); the 99.9th percentile
-/// edge 0.3-0.6% against 1.6-1.9%. On the 17 x 17 simulation mesh it costs 0.65 times S1 at
-/// N = 64, 8 x 2 (1.7 against 2.7 ms per step).
-pub const PONCHO_SUBSTEPS: u32 = 16;
-
-/// Constraint iterations per substep of the poncho (see [`PONCHO_SUBSTEPS`]).
-pub const PONCHO_ITERATIONS: u32 = 4;
-
 /// Where the poncho comes from.
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub enum PonchoSource {
@@ -70,8 +57,9 @@ pub struct PonchoScene {
     /// Default: `meshes/poncho_coarse.obj` (the same pattern with [`COARSE_PONCHO_VERTICES`]
     /// per side).
     pub simulated: Option<PonchoSource>,
-    /// The poncho's solver settings. Default: XPBD, 16 substeps x 4 iterations (the
-    /// [`PONCHO_SUBSTEPS`] x [`PONCHO_ITERATIONS`] budget), self-collision on, a soft shear
+    /// The poncho's solver settings. Default: the library's ([`SolverSettings::default`]:
+    /// XPBD, 8 substeps x 2 iterations, the structural edges solved exactly while the cloth
+    /// touches a collider), self-collision on, a soft shear
     /// (`shear_compliance` 0.1 m/N: the pattern's quad diagonals give, as a woven cloth's bias
     /// does; left out entirely, the cloth folds so readily that at 8 x 4 the waving arm traps
     /// folds in self-contact, stretched 12%).
@@ -103,8 +91,6 @@ impl Default for PonchoScene {
             source: PonchoSource::Asset("meshes/poncho.obj".into()),
             simulated: Some(PonchoSource::Asset("meshes/poncho_coarse.obj".into())),
             solver: SolverSettings {
-                substeps: PONCHO_SUBSTEPS,
-                iterations: PONCHO_ITERATIONS,
                 self_collision: true,
                 shear_compliance: 0.1,
                 ..SolverSettings::default()

@@ -35,7 +35,7 @@ use std::time::Instant;
 mod main_scene;
 mod skeleton;
 
-pub use main_scene::{MainScenePoint, main_scene_budgets, main_scene_points};
+pub use main_scene::{MainSceneBudget, MainScenePoint, main_scene_budgets, main_scene_points};
 
 pub use skeleton::{
     FabrikCurve, SplineRow, fabrik_residuals, ik_chains, key_times, random_pose, smooth_motion,
