@@ -190,8 +190,9 @@ pub struct SolverSettings {
 /// pins is held by the long-range attachments at no extra cost, and is stepped bit for bit as
 /// without it. It runs only on inextensible edges (XPBD and the hybrid at `stretch_compliance`
 /// 0, PBD at stiffness 1, no [`SolverSettings::volume`]): edges meant to give are left to the
-/// iterations; mass-spring never runs it. Its cost grows with the particle count times the iterations, and the iterations
-/// a large sheet needs grow with its size: it pays on a garment of hundreds of particles (the
+/// iterations; mass-spring never runs it. Its cost grows with the particle count times the
+/// iterations, and the iterations a large sheet needs grow with its size: it pays on a
+/// garment of hundreds of particles (the
 /// poncho at 8 x 2 with it costs less than at 16 x 4 without it, and strains less), not on a
 /// sheet of thousands resting on a collider (S2's 4096 particles on a sphere: 2.4 times the
 /// cost of adaptive substeps for the same strain; set `exact_edges: None` there).

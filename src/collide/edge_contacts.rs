@@ -41,8 +41,9 @@ use bevy::math::Vec3A;
 use super::contact::ContactScratch;
 use super::shapes::{RigidPose, SolverCollider, SolverShape};
 use super::trimesh::Aabb;
+use crate::cloth::Edge;
 
-/// The share of the longest structural edge a collider's radius must stay below to take part.
+/// The share of the cloth's longest edge a collider's radius must stay below to take part.
 const THIN_RADIUS_SHARE: f32 = 0.6;
 
 /// An edge that may touch a rounded collider during the step.
@@ -53,9 +54,13 @@ struct Candidate {
     particles: [u32; 2],
 }
 
-/// The candidate pairs of the current step, reused every step.
+/// The cloth's edges and the candidate pairs of the current step, reused every step.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct EdgeContacts {
+    /// Every edge of the cloth's triangles.
+    edges: Vec<[u32; 2]>,
+    /// The radius below which a rounded collider takes part: `0.6 L`.
+    thin_radius: f32,
     candidates: Vec<Candidate>,
     /// Per edge, its bounds at the start of the step grown by its motion.
     edge_bounds: Vec<Aabb>,
@@ -104,19 +109,27 @@ impl Core {
 }
 
 impl EdgeContacts {
+    /// The contacts of a cloth's `edges` (every edge of its triangles).
+    pub(crate) fn new(edges: &[Edge]) -> Self {
+        let longest = edges.iter().map(|e| e.rest_length).fold(0.0f32, f32::max);
+        Self {
+            edges: edges.iter().map(|e| e.particles).collect(),
+            thin_radius: THIN_RADIUS_SHARE * longest,
+            edge_bounds: Vec::with_capacity(edges.len()),
+            ..Self::default()
+        }
+    }
+
     /// Whether there are candidate pairs this step (only then is there anything to project).
     pub(crate) fn has_candidates(&self) -> bool {
         !self.candidates.is_empty()
     }
 
-    /// Finds the candidate pairs of a step of `dt` seconds: the `edges` (particles, rest
-    /// length: every edge of the cloth's triangles) of the cloth at `x` moving at `v` under
-    /// the acceleration `a`.
-    #[allow(clippy::too_many_arguments)]
+    /// Finds the candidate pairs of a step of `dt` seconds: the edges of the cloth at `x`
+    /// moving at `v` under the acceleration `a`.
     pub(crate) fn begin_step(
         &mut self,
         colliders: &[SolverCollider],
-        edges: impl Iterator<Item = ([u32; 2], f32)> + Clone,
         x: &[Vec3A],
         v: &[Vec3A],
         a: Vec3A,
@@ -125,15 +138,14 @@ impl EdgeContacts {
     ) {
         self.candidates.clear();
         self.edge_bounds.clear();
-        let longest = edges.clone().map(|(_, l)| l).fold(0.0f32, f32::max);
-        let limit = THIN_RADIUS_SHARE * longest;
+        let limit = self.thin_radius;
         let thin = |c: &SolverCollider| core_radius(&c.shape).is_some_and(|r| r < limit);
         if !colliders.iter().any(thin) {
             return;
         }
         let fall = 0.5 * a.length() * dt * dt;
         let mut cloth = Aabb::EMPTY;
-        self.edge_bounds.extend(edges.clone().map(|([i, j], _)| {
+        self.edge_bounds.extend(self.edges.iter().map(|&[i, j]| {
             let (xi, xj) = (x[i as usize], x[j as usize]);
             let motion = (v[i as usize].length().max(v[j as usize].length())) * dt + fall;
             let b = Aabb::EMPTY.grown(xi).grown(xj).padded(motion);
@@ -150,7 +162,7 @@ impl EdgeContacts {
             if !path.overlaps(&cloth) {
                 continue;
             }
-            for ((particles, _), b) in edges.clone().zip(&self.edge_bounds) {
+            for (&particles, b) in self.edges.iter().zip(&self.edge_bounds) {
                 if b.overlaps(&path) {
                     self.candidates.push(Candidate {
                         collider: k as u32,

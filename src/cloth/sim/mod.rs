@@ -121,7 +121,7 @@ pub struct ClothSolver {
     colliders: Vec<SolverCollider>,
     contacts: ContactScratch,
     thin_contacts: ThinFeatureContacts,
-    /// The structural edges against thin spheres and capsules.
+    /// The cloth's edges against thin spheres and capsules.
     edge_contacts: EdgeContacts,
     /// The particle being dragged, moved like a pin.
     drag: Option<Pin>,
@@ -210,6 +210,7 @@ impl ClothSolver {
                 None => curved_pairs.push(*pair),
             }
         }
+        let edge_contacts = EdgeContacts::new(&model.edges);
         Self {
             limit_batches,
             edge_lambdas: vec![0.0; model.edges.len()],
@@ -239,7 +240,7 @@ impl ClothSolver {
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
             thin_contacts: ThinFeatureContacts::default(),
-            edge_contacts: EdgeContacts::default(),
+            edge_contacts,
             drag: None,
             volume: None,
             rest_paths: None,

@@ -21,8 +21,9 @@
 //!    (XPBD and PBD, their multipliers accumulated over the substep's iterations); for
 //!    mass-spring, self-collision and the colliders last. After the last iteration, with
 //!    [`SolverSettings::exact_edges`] and while the cloth touches a collider, the structural
-//!    edges are solved exactly (`fast_projection.rs`); then the closing collider pass moves anything left inside a
-//!    collider onto its surface (the particles, then the edges against thin colliders). Bending in every iteration rather than the first alone
+//!    edges are solved exactly (`fast_projection.rs`); then the closing collider pass moves
+//!    anything left inside a collider onto its surface (the particles, then the edges against
+//!    thin colliders). Bending in every iteration rather than the first alone
 //!    costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
 //!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration alone
 //!    at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
@@ -215,18 +216,8 @@ impl ClothSolver {
             dt,
             settings.thickness,
         );
-        self.edge_contacts.begin_step(
-            colliders,
-            self.model
-                .edges
-                .iter()
-                .map(|e| (e.particles, e.rest_length)),
-            x,
-            v,
-            a,
-            dt,
-            settings.thickness,
-        );
+        self.edge_contacts
+            .begin_step(colliders, x, v, a, dt, settings.thickness);
         // The exact edges' scratch memory, made before any step that may use it.
         if settings.exact_edge_solve().is_some()
             && !colliders.is_empty()
