@@ -1,5 +1,5 @@
 //! A mass-spring cloth thrown into a box: it bounces off the walls and lands on two resting
-//! spheres and one sweeping back and forth (the `collisions` scene of the scenes runner).
+//! spheres and one sweeping back and forth (the `collisions` scene of the scenes runner, `crates/drape_scenes/src/scenes.rs`).
 //!
 //! ```text
 //! cargo run --features egui --example collisions
@@ -13,7 +13,24 @@ use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
-use drape_scenes::scenes::Collisions;
+
+/// The box's corners (the ground is its floor).
+const BOX: (Vec3, Vec3) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
+/// The contact material of every collider.
+const MATERIAL: ContactMaterial = ContactMaterial {
+    friction: 0.3,
+    restitution: 0.4,
+};
+
+/// The spheres at time `t` (centre, radius): two at rest and one sweeping along X.
+fn spheres_at(t: f32) -> [(Vec3, f32); 3] {
+    let (amplitude, omega) = (0.45, 1.0 / 0.45);
+    [
+        (Vec3::new(0.0, 0.25, 0.1), 0.25),
+        (Vec3::new(0.5, 0.2, -0.3), 0.2),
+        (Vec3::new(amplitude * (omega * t).sin(), 0.18, 0.45), 0.18),
+    ]
+}
 
 /// Marks the sweeping sphere.
 #[derive(Component)]
@@ -41,7 +58,7 @@ fn setup(
         Vec3::new(0.2, 0.3, 0.0),
         2.6,
     );
-    let material = Collisions::MATERIAL;
+    let material = MATERIAL;
     let grid = GridDesc::square(0.8, 24, Vec3::ZERO);
     commands.spawn((
         Name::new("cloth"),
@@ -49,15 +66,20 @@ fn setup(
         MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.2, 0.45, 0.75))),
         Cloth::default(),
         ClothSettings {
-            solver: Collisions::settings(),
+            // Mass-spring at its stable step.
+            solver: SolverSettings {
+                method: SolverMethod::MassSpring,
+                auto_substeps: true,
+                ..default()
+            },
             ground: Some(0.0),
-            container: Some(Collisions::BOX),
+            container: Some(BOX),
             ..default()
         },
         Transform::from_xyz(-0.9, 1.2, -0.4),
     ));
     let ball = materials.add(Color::srgb(0.8, 0.75, 0.6));
-    for (k, (centre, radius, _)) in Collisions::spheres(0.0).into_iter().enumerate() {
+    for (k, (centre, radius)) in spheres_at(0.0).into_iter().enumerate() {
         let mut sphere = commands.spawn((
             Mesh3d(meshes.add(Sphere::new(radius - 0.005))),
             MeshMaterial3d(ball.clone()),
@@ -76,7 +98,7 @@ fn setup(
         alpha_mode: AlphaMode::Blend,
         ..default()
     });
-    let (min, max) = Collisions::BOX;
+    let (min, max) = BOX;
     let size = max - min;
     let centre = (min + max) / 2.0;
     for (offset, extent) in [
@@ -108,7 +130,7 @@ fn setup(
 
 /// Moves the sweeping sphere along its path; the colliders take its velocity from the motion.
 fn sweep(time: Res<Time>, mut spheres: Query<&mut Transform, With<Sweeping>>) {
-    let (centre, _, _) = Collisions::spheres(time.elapsed_secs())[2];
+    let (centre, _) = spheres_at(time.elapsed_secs())[2];
     for mut transform in &mut spheres {
         transform.translation = centre;
     }

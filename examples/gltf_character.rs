@@ -8,19 +8,27 @@
 //! cargo run --release --features render --example gltf_character
 //! ```
 //!
-//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), R resets the poncho;
-//! orbit with the right mouse button, scroll to zoom. With no display it renders a few PNG
-//! frames offscreen; with no graphics adapter it runs the scene headless and prints where the
-//! poncho ended.
+//! `setup` and `put_on_poncho` below spawn the character and its poncho with the crate's API;
+//! playing the file's walk and moving the character through the world (a game's controller)
+//! come from the measuring harness (`drape_scenes::gltf_character::GltfWalkPlugin`).
+//!
+//! R resets the poncho; orbit with the right mouse button, scroll to zoom. With no display it
+//! renders a few PNG frames offscreen; with no graphics adapter it runs the scene headless and
+//! prints where the poncho ended.
 
 mod common;
 
+use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
+use bevy::world_serialization::WorldAssetRoot;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
+use bevy_drape::skeleton::plugin::BoneProxyOf;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, dress_ponchos, follow_with_camera, spawn_stage, switch_motion};
-use drape_scenes::gltf_character::{GltfCharacter, GltfCharacterPlugin, GltfCharacterScene};
+use common::{ExamplePlugin, cloth_material, follow_with_camera, spawn_stage};
+use drape_scenes::gltf_character::{
+    GltfCharacter, GltfCharacterScene, GltfWalkPlugin, walk_controller,
+};
 use drape_scenes::poncho::{CharacterMotion, Poncho};
 
 fn main() {
@@ -39,23 +47,18 @@ fn main() {
             OffscreenPlugin::from_env("gltf_character"),
         ));
     }
-    app.add_plugins((DrapePlugins::default(), GltfCharacterPlugin))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(GltfCharacterScene {
-            motion: CharacterMotion::Tour,
-            ..default()
-        })
-        .add_systems(Startup, setup)
-        .add_systems(
-            Update,
-            (
-                dress_ponchos,
-                keys,
-                switch_motion,
-                follow_with_camera::<GltfCharacter>,
-            ),
-        )
-        .run();
+    app.add_plugins((
+        DrapePlugins::default(),
+        bevy_drape::bevy_obj::ObjPlugin,
+        GltfWalkPlugin,
+    ))
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .add_systems(Startup, setup)
+    .add_systems(
+        Update,
+        (put_on_poncho, keys, follow_with_camera::<GltfCharacter>),
+    )
+    .run();
 }
 
 /// Ten seconds of the scene without a renderer; prints the poncho's centroid and the
@@ -85,10 +88,13 @@ fn run_headless() {
     println!("character at {character:?}, poncho centroid at {centroid:?}");
 }
 
+/// The stage, a ground collider, and the character: the glTF scene, capsule proxies on its
+/// joints found by name, and its animation stepped with the cloth.
 fn setup(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    server: Res<AssetServer>,
 ) {
     spawn_stage(
         &mut commands,
@@ -97,7 +103,53 @@ fn setup(
         Vec3::new(0.0, 1.0, 0.0),
         3.2,
     );
+    commands.spawn((
+        Name::new("ground"),
+        ClothCollider::plane().with_friction(0.6),
+        Transform::default(),
+    ));
+    commands.spawn((
+        Name::new("character"),
+        GltfCharacter,
+        WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset("characters/humanoid.glb"))),
+        BoneColliders::humanoid(),
+        FixedStepAnimation,
+        walk_controller(CharacterMotion::Tour),
+        Transform::default(),
+    ));
 }
+
+/// Puts the poncho on the character once its proxies are on its joints (the scene has spawned),
+/// so it does not fall through a body that is not there yet.
+fn put_on_poncho(
+    mut commands: Commands,
+    server: Res<AssetServer>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    characters: Query<(Entity, &Transform, Has<Dressed>), With<GltfCharacter>>,
+    proxies: Query<&BoneProxyOf>,
+) {
+    for (character, transform, dressed) in &characters {
+        if dressed || !proxies.iter().any(|of| of.0 == character) {
+            continue;
+        }
+        commands.entity(character).insert(Dressed);
+        commands.spawn((
+            Name::new("poncho"),
+            Poncho,
+            Mesh3d(server.load("meshes/poncho.obj")),
+            ClothSimulationMesh(server.load("meshes/poncho_coarse.obj")),
+            MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.75, 0.25, 0.2))),
+            Cloth::worn_by(character),
+            ClothSettings::default(),
+            Transform::from_translation(transform.translation + 1.5 * Vec3::Y)
+                .with_rotation(transform.rotation),
+        ));
+    }
+}
+
+/// A character wearing its poncho.
+#[derive(Component)]
+struct Dressed;
 
 fn keys(input: Res<ButtonInput<KeyCode>>, mut ponchos: Query<&mut ClothSimulation, With<Poncho>>) {
     if input.just_pressed(KeyCode::KeyR) {

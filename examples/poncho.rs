@@ -4,32 +4,36 @@
 //! cloth; self-collision keeps its folds apart; the camera follows the character.
 //!
 //! ```text
-//! cargo run --release --features render --example poncho
+//! cargo run --features egui --example poncho
 //! ```
 //!
-//! With no display (no `DISPLAY` or `WAYLAND_DISPLAY`) it renders offscreen into a few PNG
-//! frames (see `examples/common/offscreen.rs` for where and how many), then prints the scene's
-//! S3 figures. With no graphics adapter at all (no GPU, no Vulkan driver) it says so, runs the
-//! scene headless and prints its figures.
+//! `spawn_character_and_poncho` below spawns both with the crate's API; the walking, jogging
+//! and turning (a game's character controller) and the headless figures come from the
+//! measuring harness (`drape_scenes`). With no display it renders offscreen into a few PNG
+//! frames (`examples/common/offscreen.rs`), then prints the scene's S3 figures; with no graphics
+//! adapter it says so, runs the scene headless and prints its figures.
 //!
-//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W toggles the wave, B
-//! a gusting breeze (the poncho meets the air, `SolverSettings::air`), S
-//! self-collision, R resets the poncho, P pauses, C cycles the debug colours; drag the poncho
-//! with the left mouse button, orbit with the right one, scroll to zoom.
+//! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W the wave, B a gusting
+//! breeze, S self-collision, R resets the poncho, P pauses, C cycles the debug colours; drag the
+//! poncho with the left mouse button, orbit with the right one, scroll to zoom.
 
 mod common;
+
+use std::sync::Arc;
 
 use bevy::prelude::*;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{
-    ExamplePlugin, dress_humanoids, dress_ponchos, follow_with_camera, spawn_stage, switch_motion,
-};
+use common::{ExamplePlugin, cloth_material, dress_humanoids, follow_with_camera, spawn_stage};
 use drape_scenes::poncho::{
-    Character, CharacterController, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin,
-    run_headless,
+    Character, CharacterController, CharacterMotion, CharacterMotionPlugin, PonchoScene, WRIST,
+    Waving, run_headless,
 };
+
+/// Marks the poncho.
+#[derive(Component)]
+struct Poncho;
 
 /// The wind the B key turns on and off: 3 m/s from the character's left, gusting.
 const BREEZE: Wind = Wind {
@@ -62,30 +66,23 @@ fn main() {
             OffscreenPlugin::from_env("poncho"),
         ));
     }
-    app.add_plugins((DrapePlugins::default(), PonchoScenePlugin))
-        .insert_resource(Time::<Fixed>::from_hz(60.0))
-        .insert_resource(PonchoScene {
-            motion: START_MOTION,
-            // The poncho meets the air (the S3 figures are in vacuum); B turns a breeze on.
-            solver: SolverSettings {
-                air: Some(AirSettings::default()),
-                ..PonchoScene::default().solver
-            },
-            ..default()
-        })
-        .insert_resource(Wind::default())
-        .add_systems(Startup, setup)
-        .add_systems(
-            Update,
-            (
-                dress_humanoids,
-                dress_ponchos,
-                keys,
-                switch_motion,
-                label,
-                follow_with_camera::<Character>,
-            ),
-        );
+    app.add_plugins((
+        DrapePlugins::default(),
+        bevy_drape::bevy_obj::ObjPlugin,
+        CharacterMotionPlugin,
+    ))
+    .insert_resource(Time::<Fixed>::from_hz(60.0))
+    .insert_resource(Wind::default())
+    .add_systems(Startup, (setup, spawn_character_and_poncho))
+    .add_systems(
+        Update,
+        (
+            dress_humanoids,
+            keys,
+            label,
+            follow_with_camera::<Character>,
+        ),
+    );
     app.run();
     if !windowed {
         print_s3_figures();
@@ -104,6 +101,70 @@ fn print_s3_figures() {
         Ok(run) => println!("S3 (10 s headless): {}", run.json(&solver)),
         Err(e) => println!("S3: {e}"),
     }
+}
+
+/// The character: the humanoid rig playing the walk clip, capsule and sphere proxies on its
+/// bones, an IK goal on its right arm (its weight and target moved by the wave), and a
+/// controller that moves it through the world. The poncho: drawn with 41 x 41 vertices,
+/// simulated on 17 x 17, worn by the character, on a ground collider.
+fn spawn_character_and_poncho(
+    mut commands: Commands,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    assets: Res<AssetServer>,
+) {
+    commands.spawn((
+        Name::new("ground"),
+        ClothCollider::plane().with_friction(0.6),
+        Transform::default(),
+    ));
+    let character = commands
+        .spawn((
+            Name::new("character"),
+            Skeleton {
+                rig: Arc::new(humanoid()),
+            },
+            BoneColliders::humanoid(),
+            ClipPlayer::new(assets.load("clips/walk.clip.ron")),
+            InverseKinematics {
+                goals: vec![IkGoal {
+                    end_bone: "forearm_r".into(),
+                    length: 3, // the shoulder's two hinges and the elbow
+                    effector: WRIST,
+                    target: IkTarget::CharacterPoint(Vec3::new(-0.38, 1.72, 0.12)),
+                    settings: IkSettings::default(),
+                    weight: 0.0,
+                    max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                }],
+                results: Vec::new(),
+            },
+            (Character, CharacterController::new(START_MOTION), Waving),
+            Transform::default(),
+        ))
+        .id();
+    commands.spawn((
+        Name::new("poncho"),
+        Poncho,
+        Mesh3d(assets.load("meshes/poncho.obj")),
+        ClothSimulationMesh(assets.load("meshes/poncho_coarse.obj")),
+        MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.75, 0.25, 0.2))),
+        Cloth::worn_by(character),
+        ClothSettings {
+            density: 0.25,
+            // The scene S3 measures (`scenes -- s3`), in air: B turns a breeze on.
+            solver: SolverSettings {
+                self_collision: true,
+                shear_compliance: 0.1,
+                air: Some(AirSettings::default()),
+                ..default()
+            },
+            divergence: DivergenceBounds {
+                max_strain: 2.0,
+                ..default()
+            },
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.5, 0.0),
+    ));
 }
 
 #[derive(Component)]
@@ -154,11 +215,34 @@ fn setup(
 
 fn keys(
     input: Res<ButtonInput<KeyCode>>,
+    mut commands: Commands,
     mut drape: ResMut<DrapeSettings>,
-    mut scene: ResMut<PonchoScene>,
+    mut characters: Query<(Entity, &mut CharacterController, Has<Waving>)>,
     mut ponchos: Query<(&mut ClothSimulation, &mut ClothSettings), With<Poncho>>,
     mut wind: ResMut<Wind>,
 ) {
+    let digits = [
+        KeyCode::Digit1,
+        KeyCode::Digit2,
+        KeyCode::Digit3,
+        KeyCode::Digit4,
+    ];
+    let motion_keys = digits.into_iter().chain([KeyCode::Digit5]);
+    for (key, motion) in motion_keys.zip(CharacterMotion::ALL) {
+        for (_, mut controller, _) in &mut characters {
+            if input.just_pressed(key) {
+                controller.switch_to(motion);
+            }
+        }
+    }
+    for (character, _, waving) in &characters {
+        if input.just_pressed(KeyCode::KeyW) {
+            match waving {
+                true => commands.entity(character).remove::<Waving>(),
+                false => commands.entity(character).insert(Waving),
+            };
+        }
+    }
     if input.just_pressed(KeyCode::KeyB) {
         *wind = if wind.velocity == Vec3::ZERO {
             BREEZE
@@ -168,9 +252,6 @@ fn keys(
     }
     if input.just_pressed(KeyCode::KeyP) {
         drape.paused = !drape.paused;
-    }
-    if input.just_pressed(KeyCode::KeyW) {
-        scene.wave = !scene.wave;
     }
     for (mut simulation, mut settings) in &mut ponchos {
         if input.just_pressed(KeyCode::KeyR) {
@@ -184,14 +265,13 @@ fn keys(
 
 fn label(
     timings: Res<DrapeTimings>,
-    scene: Res<PonchoScene>,
     ponchos: Query<(&ClothSimulation, &ClothSettings), With<Poncho>>,
-    controllers: Query<&CharacterController>,
+    controllers: Query<(&CharacterController, Has<Waving>)>,
     mut labels: Query<&mut Text, With<Label>>,
 ) {
-    let (motion, speed) = controllers
+    let (motion, speed, waving) = controllers
         .single()
-        .map_or(("-", 0.0), |c| (c.motion.name(), c.speed));
+        .map_or(("-", 0.0, false), |(c, w)| (c.motion.name(), c.speed, w));
     let Ok((simulation, settings)) = ponchos.single() else {
         return;
     };
@@ -211,7 +291,7 @@ fn label(
             } else {
                 "off"
             },
-            if scene.wave { "on" } else { "off" },
+            if waving { "on" } else { "off" },
             ms(timings.total()),
             ms(timings.animation),
             ms(timings.inverse_kinematics),

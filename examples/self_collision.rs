@@ -14,7 +14,6 @@ mod common;
 use bevy::prelude::*;
 use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
-use drape_scenes::scenes::SheetDrop;
 
 const N: u32 = 32;
 
@@ -42,14 +41,14 @@ fn setup(
         Vec3::new(0.0, 0.05, 0.35),
         2.3,
     );
-    let scene = SheetDrop { n: N };
     commands.spawn((
-        ClothCollider::plane()
-            .with_friction(SheetDrop::FRICTION)
-            .with_margin(0.0),
+        ClothCollider::plane().with_friction(0.5).with_margin(0.0),
         Transform::default(),
     ));
-    let sheet = meshes.add(grid_mesh(&scene.grid()));
+    // A 1 m square whose lower edge is 0.3 m up, tilted 0.2 rad from the vertical.
+    let mut grid = GridDesc::square(1.0, N, Vec3::new(0.0, 0.3, 0.0));
+    grid.orientation = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2 + 0.2);
+    let sheet = meshes.add(grid_mesh(&grid));
     let row = commands
         .spawn(Node {
             width: Val::Percent(100.0),
@@ -68,7 +67,12 @@ fn setup(
                 MeshMaterial3d(cloth_material(&mut materials, colour)),
                 Cloth::default(),
                 ClothSettings {
-                    solver: SheetDrop::settings(on),
+                    // A soft, drapey cloth that piles up in folds.
+                    solver: SolverSettings {
+                        bend_compliance: 1.0e4,
+                        self_collision: on,
+                        ..default()
+                    },
                     ..default()
                 },
                 Transform::from_xyz(x, 0.0, 0.0),

@@ -16,7 +16,13 @@ use bevy::prelude::*;
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, OrbitCamera, cloth_material, spawn_stage};
-use drape_scenes::water::Pour;
+
+/// The hammock's side (m), vertices per side, the posts' height (m), and how far in from the
+/// corners the posts stand (as a share of the side): the `pour` scene of the scenes runner.
+const SIDE: f32 = 0.8;
+const VERTICES: u32 = 21;
+const HEIGHT: f32 = 0.9;
+const SPAN: f32 = 0.7;
 
 fn main() {
     let mut app = App::new();
@@ -51,21 +57,26 @@ fn setup(
         Vec3::new(0.0, 0.6, 0.0),
         2.4,
     );
-    // The `pour` scene of the scenes runner: a sheet hung by its corners from four posts
-    // standing in from them, and a jet over it.
-    let scene = Pour::default();
+    // A sheet hung by its corners from four posts standing in from them, and a jet over it.
+    let n = VERTICES;
+    let grid = GridDesc::square(SIDE, n, Vec3::new(-SIDE / 2.0, HEIGHT, -SIDE / 2.0));
+    let posts = [0, n - 1, n * (n - 1), n * n - 1].map(|k| {
+        let (i, j) = ((k % n) as f32, (k / n) as f32);
+        let corner = Vec3::new(i / (n - 1) as f32 - 0.5, 0.0, j / (n - 1) as f32 - 0.5) * SIDE;
+        (k, corner * SPAN + Vec3::Y * HEIGHT)
+    });
     let wood = materials.add(StandardMaterial {
         base_color: Color::srgb(0.45, 0.32, 0.2),
         perceptual_roughness: 0.8,
         ..default()
     });
-    let post_mesh = meshes.add(Cylinder::new(0.02, scene.height));
+    let post_mesh = meshes.add(Cylinder::new(0.02, HEIGHT));
     let mut cloth = Cloth::default();
-    for (vertex, top) in scene.posts() {
+    for (vertex, top) in posts {
         commands.spawn((
             Mesh3d(post_mesh.clone()),
             MeshMaterial3d(wood.clone()),
-            Transform::from_translation(top - Vec3::Y * scene.height / 2.0),
+            Transform::from_translation(top - Vec3::Y * HEIGHT / 2.0),
         ));
         let top = commands.spawn(Transform::from_translation(top)).id();
         cloth = cloth.with_attachment(VertexAttachment {
@@ -76,21 +87,34 @@ fn setup(
     }
     commands.spawn((
         Name::new("hammock"),
-        Mesh3d(meshes.add(grid_mesh(&scene.grid()))),
+        Mesh3d(meshes.add(grid_mesh(&grid))),
         MeshMaterial3d(cloth_material(
             &mut materials,
             Color::srgb(0.85, 0.75, 0.55),
         )),
         cloth,
         ClothSettings {
-            density: scene.density,
-            solver: scene.cloth,
+            density: 0.2,
+            // Water is 30 to 40 times heavier than the cloth that holds it: the cloth needs
+            // the iterations to carry it.
+            solver: SolverSettings {
+                substeps: 16,
+                iterations: 4,
+                ..default()
+            },
             ground: Some(0.0),
             ..default()
         },
         Fluid {
-            settings: scene.fluid,
-            source: FluidSource::Jet(scene.jet),
+            settings: FluidSettings::default(),
+            // 200 particles a second, 600 at most, falling from 1.5 m at 1 m/s.
+            source: FluidSource::Jet(FluidJet {
+                origin: Vec3::new(0.0, 1.5, 0.0),
+                velocity: Vec3::new(0.0, -1.0, 0.0),
+                radius: 0.04,
+                rate: 200.0,
+                max_particles: 600,
+            }),
         },
         Drops::default(),
     ));

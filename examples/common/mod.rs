@@ -286,24 +286,6 @@ pub(crate) fn dress_humanoids(
     }
 }
 
-/// Gives every poncho of the main scene (`drape_scenes::poncho::Poncho`) its material once it
-/// is spawned.
-#[allow(dead_code)]
-pub(crate) fn dress_ponchos(
-    mut commands: Commands,
-    ponchos: Query<Entity, Added<drape_scenes::poncho::Poncho>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
-) {
-    for poncho in &ponchos {
-        commands
-            .entity(poncho)
-            .insert(MeshMaterial3d(cloth_material(
-                &mut materials,
-                Color::srgb(0.75, 0.25, 0.2),
-            )));
-    }
-}
-
 /// The orbit camera's focus follows the entity with `C` (smoothly), 1 m above its origin; the
 /// orbit keeps its angles and distance (the mouse turns and zooms it in a window).
 #[allow(dead_code)]
@@ -320,30 +302,5 @@ pub(crate) fn follow_with_camera<C: Component>(
     for (mut orbit, mut transform) in &mut cameras {
         orbit.focus = orbit.focus.lerp(goal, blend);
         *transform = orbit.transform();
-    }
-}
-
-/// 1 to 5 switch every character's motion (in place, walk, jog, teleport, the tour).
-#[allow(dead_code)]
-pub(crate) fn switch_motion(
-    input: Res<ButtonInput<KeyCode>>,
-    mut controllers: Query<&mut drape_scenes::poncho::CharacterController>,
-) {
-    let keys = [
-        KeyCode::Digit1,
-        KeyCode::Digit2,
-        KeyCode::Digit3,
-        KeyCode::Digit4,
-        KeyCode::Digit5,
-    ];
-    for (key, motion) in keys
-        .into_iter()
-        .zip(drape_scenes::poncho::CharacterMotion::ALL)
-    {
-        if input.just_pressed(key) {
-            for mut controller in &mut controllers {
-                controller.switch_to(motion);
-            }
-        }
     }
 }

@@ -104,7 +104,25 @@ pub struct VertexAttachment {
 }
 
 /// Cloth parameters of one cloth entity. A cloth without this component uses
-/// [`DefaultClothSettings`].
+/// [`DefaultClothSettings`]. A change takes effect at the next fixed step without rebuilding
+/// the cloth.
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// // A heavy, stiff canvas that keeps its shape, with more solver work per step.
+/// let canvas = ClothSettings {
+///     density: 0.4, // kg/m^2
+///     solver: SolverSettings {
+///         substeps: 16,
+///         iterations: 4,
+///         bend_compliance: 1.0,
+///         ..default()
+///     },
+///     ..default()
+/// };
+/// assert!(canvas.solver.validate().is_ok());
+/// ```
 #[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct ClothSettings {

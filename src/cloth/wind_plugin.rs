@@ -10,7 +10,59 @@ use super::air::{Falloff, Gusts, WindField, WindShape, WindSourceDesc};
 use crate::schedule::{DrapeSchedule, DrapeSystems};
 
 /// The wind everywhere: a velocity and its gusts. Absent, the air is still (but for
-/// [`WindSource`]s).
+/// [`WindSource`]s). A cloth feels the air when its [`SolverSettings::air`] is set.
+///
+/// [`SolverSettings::air`]: crate::cloth::SolverSettings::air
+///
+/// ```
+/// # use std::time::Duration;
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// # fn headless() -> App {
+/// #     let mut app = App::new();
+/// #     app.add_plugins((
+/// #         MinimalPlugins,
+/// #         bevy::transform::TransformPlugin,
+/// #         bevy::asset::AssetPlugin::default(),
+/// #         bevy::mesh::MeshPlugin,
+/// #         DrapePlugins::default(),
+/// #     ))
+/// #     .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+/// #         Duration::from_secs_f64(1.0 / 64.0),
+/// #     ));
+/// #     app
+/// # }
+/// let mut app = headless();
+/// app.insert_resource(Wind {
+///     velocity: Vec3::new(0.0, 0.0, 8.0), // 8 m/s along +Z
+///     gusts: Gusts::default(),
+/// });
+/// // A flag hung by its left edge, in the air.
+/// let grid = GridDesc::square(1.0, 12, Vec3::ZERO);
+/// let pole: Vec<u32> = (0..12).map(|j| grid.index(0, j)).collect();
+/// let mut flag = GridDesc::square(1.0, 12, Vec3::ZERO);
+/// flag.orientation = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+/// let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(grid_mesh(&flag));
+/// let cloth = app
+///     .world_mut()
+///     .spawn((
+///         Mesh3d(mesh),
+///         Cloth::pinned(pole),
+///         ClothSettings {
+///             solver: SolverSettings { air: Some(AirSettings::default()), ..default() },
+///             ..default()
+///         },
+///         Transform::from_xyz(0.0, 2.0, 0.0),
+///     ))
+///     .id();
+/// for _ in 0..129 {
+///     app.update();
+/// }
+/// // The wind has blown the flag out along +Z.
+/// let state = app.world().get::<ClothSimulation>(cloth).unwrap().solver().state();
+/// let mean_z = state.positions.iter().map(|p| p.z).sum::<f32>() / state.len() as f32;
+/// assert!(mean_z > 0.2, "{mean_z}");
+/// ```
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Reflect)]
 #[reflect(Resource)]
 pub struct Wind {

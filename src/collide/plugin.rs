@@ -52,6 +52,49 @@ pub enum ColliderShape {
 /// Its pose is taken from its transform chain at each fixed step; its velocity from a
 /// [`KinematicVelocity`], else an [`AnimatedVelocity`] on it or on its parent (a bone), else
 /// the change of its pose over the step.
+///
+/// ```
+/// # use std::time::Duration;
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// # fn headless() -> App {
+/// #     let mut app = App::new();
+/// #     app.add_plugins((
+/// #         MinimalPlugins,
+/// #         bevy::transform::TransformPlugin,
+/// #         bevy::asset::AssetPlugin::default(),
+/// #         bevy::mesh::MeshPlugin,
+/// #         DrapePlugins::default(),
+/// #     ))
+/// #     .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+/// #         Duration::from_secs_f64(1.0 / 64.0),
+/// #     ));
+/// #     app
+/// # }
+/// let mut app = headless();
+/// // A 1 m square centred over the origin (`GridDesc` starts at its corner).
+/// let grid = GridDesc::square(1.0, 16, Vec3::new(-0.5, 0.0, -0.5));
+/// let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(grid_mesh(&grid));
+/// let sheet = app
+///     .world_mut()
+///     .spawn((Mesh3d(mesh), Cloth::default(), Transform::from_xyz(0.0, 0.5, 0.0)))
+///     .id();
+/// // A ball under the sheet's middle, and the ground.
+/// app.world_mut().spawn((
+///     ClothCollider::sphere(0.2).with_friction(0.8),
+///     Transform::from_xyz(0.0, 0.2, 0.0),
+/// ));
+/// app.world_mut().spawn((ClothCollider::plane(), Transform::default()));
+/// for _ in 0..65 {
+///     app.update();
+/// }
+/// // The sheet lies over the ball: its middle on the ball's top, nothing inside the ball.
+/// let state = app.world().get::<ClothSimulation>(sheet).unwrap().solver().state();
+/// let centre = Vec3::new(0.0, 0.2, 0.0);
+/// assert!(state.positions.iter().all(|p| Vec3::from(*p).distance(centre) > 0.2));
+/// let highest = state.positions.iter().map(|p| p.y).fold(0.0, f32::max);
+/// assert!(highest > 0.38 && highest < 0.45, "{highest}");
+/// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
 #[require(Transform, ColliderState)]

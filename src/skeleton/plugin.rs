@@ -88,6 +88,46 @@ pub struct Skeleton {
 /// A proxy naming a bone that is not there is skipped with a warning naming the entity. When
 /// the component changes (a colliders file reloaded, an inspector's edit) the proxies are
 /// spawned again.
+///
+/// ```
+/// # use std::time::Duration;
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// # fn headless() -> App {
+/// #     let mut app = App::new();
+/// #     app.add_plugins((
+/// #         MinimalPlugins,
+/// #         bevy::transform::TransformPlugin,
+/// #         bevy::asset::AssetPlugin::default(),
+/// #         bevy::mesh::MeshPlugin,
+/// #         DrapePlugins::default(),
+/// #     ))
+/// #     .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+/// #         Duration::from_secs_f64(1.0 / 64.0),
+/// #     ));
+/// #     app
+/// # }
+/// # use std::sync::Arc;
+/// let mut app = headless();
+/// // Slimmer arms than the humanoid's, and more friction on every proxy.
+/// let mut colliders = BoneColliders::humanoid();
+/// for proxy in colliders.proxies.iter_mut().filter(|p| p.bone.starts_with("upper_arm")) {
+///     proxy.radius *= 0.8;
+/// }
+/// colliders.material.friction = 0.9;
+/// let proxies = colliders.proxies.len();
+/// let character = app
+///     .world_mut()
+///     .spawn((Skeleton { rig: Arc::new(humanoid()) }, colliders, Transform::default()))
+///     .id();
+/// app.update();
+/// app.update();
+/// // One collider per proxy, each on a child of its bone.
+/// let world = app.world_mut();
+/// let spawned = world.query::<(&BoneProxyOf, &ClothCollider)>().iter(world).count();
+/// assert_eq!(spawned, proxies);
+/// # let _ = character;
+/// ```
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct BoneColliders {
@@ -544,6 +584,57 @@ pub enum IkTarget {
 /// at this step, from a second-order one-sided difference of the last three solves. Each solve
 /// starts from the goal's last solution without restarts, and the angles move towards it at
 /// most [`IkGoal::max_speed`], so a limb follows its target continuously.
+///
+/// ```
+/// # use std::time::Duration;
+/// # use bevy::prelude::*;
+/// # use bevy_drape::prelude::*;
+/// # fn headless() -> App {
+/// #     let mut app = App::new();
+/// #     app.add_plugins((
+/// #         MinimalPlugins,
+/// #         bevy::transform::TransformPlugin,
+/// #         bevy::asset::AssetPlugin::default(),
+/// #         bevy::mesh::MeshPlugin,
+/// #         DrapePlugins::default(),
+/// #     ))
+/// #     .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+/// #         Duration::from_secs_f64(1.0 / 64.0),
+/// #     ));
+/// #     app
+/// # }
+/// # use std::sync::Arc;
+/// let mut app = headless();
+/// let target = Vec3::new(-0.3, 1.2, 0.35); // in front of the right hip, within reach
+/// let walk = app.world().resource::<AssetServer>().load("clips/walk.clip.ron");
+/// let character = app
+///     .world_mut()
+///     .spawn((
+///         Skeleton { rig: Arc::new(humanoid()) },
+///         ClipPlayer::new(walk), // IK on top of the walk
+///         InverseKinematics {
+///             goals: vec![IkGoal {
+///                 end_bone: "forearm_r".into(),
+///                 length: 3, // the shoulder's two hinges and the elbow
+///                 effector: Vec3::new(0.0, -0.25, 0.0), // the wrist, in the forearm's frame
+///                 target: IkTarget::Point(target),
+///                 settings: IkSettings::default(),
+///                 weight: 1.0,
+///                 max_speed: IkGoal::DEFAULT_MAX_SPEED,
+///             }],
+///             results: Vec::new(),
+///         },
+///         Transform::default(),
+///     ))
+///     .id();
+/// // One second: the arm turns at most `max_speed` towards the solution.
+/// for _ in 0..65 {
+///     app.update();
+/// }
+/// let ik = app.world().get::<InverseKinematics>(character).unwrap();
+/// let reached = ik.results[0].as_ref().expect("the target is within reach");
+/// assert!(reached.error < 0.01, "{reached:?}");
+/// ```
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Component)]
 #[require(IkState)]

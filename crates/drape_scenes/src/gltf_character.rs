@@ -69,11 +69,51 @@ impl Plugin for GltfCharacterPlugin {
         if !app.is_plugin_added::<bevy_obj::ObjPlugin>() {
             app.add_plugins(bevy_obj::ObjPlugin);
         }
+        if !app.is_plugin_added::<GltfWalkPlugin>() {
+            app.add_plugins(GltfWalkPlugin);
+        }
         app.init_resource::<GltfCharacterScene>()
             .add_systems(Startup, spawn)
-            .add_systems(Update, (play_walk, dress))
+            .add_systems(Update, dress);
+    }
+}
+
+/// The motion of every [`GltfCharacter`]: plays the file's `walk` animation on the players of
+/// its scene and moves it by its [`CharacterController`] (the animation's speed following the
+/// character's, so the feet do not skate); what a game's controller does, not the crate's.
+#[derive(Default)]
+pub struct GltfWalkPlugin;
+
+impl Plugin for GltfWalkPlugin {
+    fn build(&self, app: &mut App) {
+        app.add_systems(Startup, load_walk)
+            .add_systems(Update, play_walk)
             .add_systems(FixedUpdate, drive.before(DrapeSystems::Prepare));
     }
+}
+
+/// A controller for the glTF humanoid doing `motion`, its no-skate speed that of the file's
+/// walk (the crate's walk clip).
+pub fn walk_controller(motion: CharacterMotion) -> CharacterController {
+    let mut controller = CharacterController::new(motion);
+    let rig = humanoid();
+    let feet: Vec<usize> = ["foot_l", "foot_r"]
+        .iter()
+        .filter_map(|f| rig.find(f))
+        .collect();
+    controller.stance_speed =
+        ClipDesc::from_ron(include_str!("../../../assets/clips/walk.clip.ron"))
+            .ok()
+            .and_then(|desc| Clip::new(&desc, &rig).ok())
+            .and_then(|clip| clip.stance_speed(&rig, &feet, Vec3::Z));
+    controller
+}
+
+fn load_walk(mut commands: Commands, server: Res<AssetServer>) {
+    commands.insert_resource(Walk {
+        file: server.load(CHARACTER_FILE),
+        graph: None,
+    });
 }
 
 /// A headless App (`MinimalPlugins`, transforms, assets, meshes, scenes, glTF and animation)
@@ -106,18 +146,7 @@ pub fn headless_app(scene: GltfCharacterScene) -> App {
 }
 
 fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>, server: Res<AssetServer>) {
-    let mut controller = CharacterController::new(scene.motion);
-    // The file's walk is the crate's walk clip, so its no-skate speed is the clip's.
-    let rig = humanoid();
-    let feet: Vec<usize> = ["foot_l", "foot_r"]
-        .iter()
-        .filter_map(|f| rig.find(f))
-        .collect();
-    controller.stance_speed =
-        ClipDesc::from_ron(include_str!("../../../assets/clips/walk.clip.ron"))
-            .ok()
-            .and_then(|desc| Clip::new(&desc, &rig).ok())
-            .and_then(|clip| clip.stance_speed(&rig, &feet, Vec3::Z));
+    let controller = walk_controller(scene.motion);
     for k in 0..scene.characters {
         commands.spawn((
             Name::new(format!("character {k}")),
@@ -130,10 +159,6 @@ fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>, server: Res<Ass
             Transform::from_xyz(2.5 * k as f32, 0.0, 0.0),
         ));
     }
-    commands.insert_resource(Walk {
-        file: server.load(CHARACTER_FILE),
-        graph: None,
-    });
     commands.spawn((
         Name::new("ground"),
         ClothCollider::plane().with_friction(0.6),
@@ -177,11 +202,14 @@ struct Dressed;
 /// and the scene are there.
 fn play_walk(
     mut commands: Commands,
-    mut walk: ResMut<Walk>,
+    walk: Option<ResMut<Walk>>,
     files: Res<Assets<Gltf>>,
     mut graphs: ResMut<Assets<AnimationGraph>>,
     mut players: Query<(Entity, &mut AnimationPlayer), Without<AnimationGraphHandle>>,
 ) {
+    let Some(mut walk) = walk else {
+        return;
+    };
     if walk.graph.is_none() {
         let Some(clip) = files
             .get(&walk.file)

@@ -340,7 +340,7 @@ impl CharacterController {
 }
 
 /// Spawns the poncho scene at `Startup` (with the [`PonchoScene`] resource, default if
-/// absent) and moves the wave's IK target.
+/// absent), with the characters' motion of [`CharacterMotionPlugin`].
 pub struct PonchoScenePlugin;
 
 impl Plugin for PonchoScenePlugin {
@@ -348,9 +348,23 @@ impl Plugin for PonchoScenePlugin {
         if !app.is_plugin_added::<bevy_obj::ObjPlugin>() {
             app.add_plugins(bevy_obj::ObjPlugin);
         }
-        app.register_type::<(PonchoScene, Poncho, Character, CharacterController)>()
+        if !app.is_plugin_added::<CharacterMotionPlugin>() {
+            app.add_plugins(CharacterMotionPlugin);
+        }
+        app.register_type::<(PonchoScene, Poncho)>()
             .init_resource::<PonchoScene>()
-            .add_systems(Startup, spawn_poncho_scene)
+            .add_systems(Startup, spawn_poncho_scene);
+    }
+}
+
+/// Moves every [`Character`] by its [`CharacterController`] (its clip's pace following its
+/// speed) and raises the right hand of every [`Waving`] one by its IK goal: the motion a game's
+/// controller gives its characters, spawned by [`PonchoScenePlugin`] or by an example itself.
+pub struct CharacterMotionPlugin;
+
+impl Plugin for CharacterMotionPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<(Character, CharacterController, Waving)>()
             // As a game's controller would, in `FixedUpdate`; ordered before the drape sets
             // should the drape schedule be `FixedUpdate` too.
             .add_systems(
@@ -360,8 +374,14 @@ impl Plugin for PonchoScenePlugin {
     }
 }
 
-/// The wrist in the forearm's frame.
-const WRIST: Vec3 = Vec3::new(0.0, -0.25, 0.0);
+/// A [`Character`] whose first IK goal waves its right hand now and then ([`wave_at`]); without
+/// it the goal's weight is 0 and the clip moves the arm.
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct Waving;
+
+/// The wrist in the forearm's frame (the wave's IK effector).
+pub const WRIST: Vec3 = Vec3::new(0.0, -0.25, 0.0);
 /// The wave's cycle: the hand rises at 2 s, waves and comes down at 6 s, every 8 s.
 const WAVE_CYCLE: f32 = 8.0;
 const WAVE_FROM: f32 = 2.0;
@@ -490,6 +510,9 @@ fn spawn_poncho_scene(
         if let Some(simulated) = &simulated {
             poncho.insert(ClothSimulationMesh(simulated.clone()));
         }
+        if scene.wave {
+            commands.entity(character).insert(Waving);
+        }
     }
 }
 
@@ -502,13 +525,12 @@ fn numbered(name: &str, i: u32) -> String {
 }
 
 fn wave(
-    scene: Res<PonchoScene>,
     time: Res<Time>,
-    mut characters: Query<&mut InverseKinematics, With<Character>>,
+    mut characters: Query<(&mut InverseKinematics, Has<Waving>), With<Character>>,
 ) {
-    for mut ik in &mut characters {
+    for (mut ik, waving) in &mut characters {
         if let Some(goal) = ik.goals.first_mut() {
-            if scene.wave {
+            if waving {
                 let (weight, target) = wave_at(time.elapsed_secs());
                 goal.weight = weight;
                 goal.target = IkTarget::CharacterPoint(target);
