@@ -66,10 +66,10 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy::math::Vec3;
-use bevy_drape::cloth::plugin::DrapeSettings;
 use bevy_drape::cloth::{
     AdaptiveSubsteps, ExactEdges, Gusts, PonchoDesc, SolverMethod, SolverSettings,
 };
+use bevy_drape::schedule::DrapeSettings;
 use drape_scenes::poncho::{
     COARSE_PONCHO_VERTICES, CharacterMotion, PonchoScene, PonchoSource, headless_app, run_app,
     run_headless,

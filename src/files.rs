@@ -25,9 +25,7 @@ use bevy::reflect::serde::{TypedReflectDeserializer, TypedReflectSerializer};
 use bevy::reflect::{FromReflect, GetTypeRegistration, TypePath, TypeRegistry, TypeRegistryArc};
 use serde::de::DeserializeSeed;
 
-use crate::cloth::plugin::ClothSettings;
 use crate::schedule::DrapeSystems;
-use crate::skeleton::plugin::BoneColliders;
 
 /// A component whose value can come from a RON file.
 pub trait FileValue:
@@ -41,14 +39,6 @@ pub trait FileValue:
 {
     /// The file extension, without the leading dot.
     const EXTENSION: &'static str;
-}
-
-impl FileValue for ClothSettings {
-    const EXTENSION: &'static str = "cloth.ron";
-}
-
-impl FileValue for BoneColliders {
-    const EXTENSION: &'static str = "colliders.ron";
 }
 
 /// A `T` loaded from a file.
@@ -65,14 +55,6 @@ impl<T: FileValue> FromFile<T> {
         Self(handle)
     }
 }
-
-/// On a cloth: its [`ClothSettings`] from a `.cloth.ron` file
-/// (`ClothSettingsFile::new(server.load("settings/x.cloth.ron"))`).
-pub type ClothSettingsFile = FromFile<ClothSettings>;
-
-/// On a character: its [`BoneColliders`] from a `.colliders.ron` file
-/// (`BoneCollidersFile::new(server.load("x.colliders.ron"))`).
-pub type BoneCollidersFile = FromFile<BoneColliders>;
 
 /// Why a file could not be read.
 #[derive(Debug, thiserror::Error)]

@@ -156,6 +156,7 @@ pub mod interact;
 pub mod mesh;
 pub mod schedule;
 pub mod skeleton;
+pub(crate) mod weld;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::ecs::intern::Interned;
@@ -175,7 +176,7 @@ pub mod prelude {
     pub use crate::cloth::mesh::grid_mesh;
     pub use crate::cloth::plugin::{
         Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
-        ClothSimulation, DefaultClothSettings, DrapeSettings, OnDivergence, VertexAttachment,
+        ClothSettingsFile, ClothSimulation, DefaultClothSettings, OnDivergence, VertexAttachment,
     };
     pub use crate::cloth::render_mesh::ClothSimulationMesh;
     pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
@@ -187,21 +188,21 @@ pub mod prelude {
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{
         AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,
-        KinematicVelocity, StepColliders,
+        KinematicVelocity,
     };
     pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
-    pub use crate::files::{BoneCollidersFile, ClothSettingsFile, FileAsset, FromFile};
+    pub use crate::files::{FileAsset, FromFile};
     pub use crate::fluid::plugin::{Fluid, FluidPlugin, FluidSimulation, FluidSource};
     pub use crate::fluid::{FluidJet, FluidSettings, FluidSolver};
-    pub use crate::schedule::{DrapeSystems, DrapeTimings};
+    pub use crate::schedule::{DrapeSettings, DrapeSystems, DrapeTimings, StepColliders};
     pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
     #[cfg(feature = "animation")]
     pub use crate::skeleton::fixed_step_animation::FixedStepAnimation;
     pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};
     pub use crate::skeleton::ik::{IkChain, IkError, IkResult, IkSettings};
     pub use crate::skeleton::plugin::{
-        BoneColliders, BoneEntity, BoneProxyOf, ClipAsset, ClipPlayer, IkGoal, IkTarget,
-        InverseKinematics, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
+        BoneColliders, BoneCollidersFile, BoneEntity, BoneProxyOf, ClipAsset, ClipPlayer, IkGoal,
+        IkTarget, InverseKinematics, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
     };
     pub use crate::skeleton::rig::{BoneDesc, Rig, RigError};
 }
@@ -259,7 +260,10 @@ impl PluginGroup for DrapePlugins {
             .add(ColliderPlugin)
             .add(WindPlugin)
             .add(ClothPlugin)
-            .add(FluidPlugin);
+            .add(FluidPlugin)
+            .add(cloth::plugin::ClothCouplingPlugin::<
+                fluid::plugin::FluidSimulation,
+            >::default());
         #[cfg(feature = "avian")]
         let group = group.add(collide::avian::AvianColliderPlugin);
         #[cfg(feature = "animation")]

@@ -8,15 +8,21 @@
 //! [`DrapeSystems::Writeback`], in [`PostUpdate`] after transform propagation, interpolated
 //! between the last two fixed states.
 
-use crate::cloth::sim::StepTimings;
+use std::time::{Duration, Instant};
+
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::ecs::intern::Interned;
 use bevy::ecs::schedule::{IntoScheduleConfigs, ScheduleLabel, SystemSet};
 use bevy::prelude::FixedPostUpdate;
+use bevy::prelude::{Component, Entity, GlobalTransform, Vec3};
 use bevy::prelude::{ReflectResource, ResMut, Resource};
 use bevy::reflect::Reflect;
 use bevy::transform::TransformSystems;
-use std::time::{Duration, Instant};
+
+use crate::cloth::sim::StepTimings;
+use crate::cloth::{ClothSolver, SolverSettings, WindField};
+use crate::collide::{RigidPose, SolverCollider, Teleport};
+use crate::error::ClothError;
 
 /// The system sets of `bevy_drape`, in the order they run.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -51,7 +57,7 @@ pub struct DrapeTimings {
     /// [`DrapeSystems::Step`].
     pub cloth: Duration,
     /// The parts of the cloth stage, summed over the cloths (CPU time: with cloths stepped on
-    /// several threads, [`DrapeSettings::max_threads`](crate::cloth::plugin::DrapeSettings),
+    /// several threads, [`DrapeSettings::max_threads`](DrapeSettings),
     /// the sum can exceed [`DrapeTimings::cloth`]).
     pub cloth_parts: StepTimings,
     /// Writing the cloths into their meshes ([`DrapeSystems::Writeback`]), in the last
@@ -90,17 +96,22 @@ impl DrapeTimings {
 }
 
 /// The schedule `bevy_drape` simulates in, as a resource: the one label every drape plugin
-/// adds its fixed-step systems to (set by [`DrapeSchedulePlugin`], [`FixedPostUpdate`] if it
-/// is absent).
+/// adds its fixed-step systems to (set by [`DrapeSchedulePlugin`]).
 #[derive(bevy::prelude::Resource, Debug, Clone, Copy)]
 pub(crate) struct DrapeSchedule(pub(crate) Interned<dyn ScheduleLabel>);
 
 impl DrapeSchedule {
-    /// The drape schedule of `app`.
-    pub(crate) fn of(app: &App) -> Interned<dyn ScheduleLabel> {
-        app.world()
-            .get_resource::<DrapeSchedule>()
-            .map_or_else(|| FixedPostUpdate.intern(), |s| s.0)
+    /// The drape schedule of `app`, for a drape plugin adding its systems: the one of the
+    /// [`DrapeSchedulePlugin`] added before, or [`FixedPostUpdate`] with the plugin added now
+    /// (so any subset of the drape plugins runs in the same ordered sets). To simulate in
+    /// another schedule, add `DrapeSchedulePlugin::new(schedule)` (or
+    /// [`DrapePlugins::new`](crate::DrapePlugins::new)) before the other drape plugins; added
+    /// after them, Bevy refuses it as added twice.
+    pub(crate) fn of(app: &mut App) -> Interned<dyn ScheduleLabel> {
+        if !app.is_plugin_added::<DrapeSchedulePlugin>() {
+            app.add_plugins(DrapeSchedulePlugin::default());
+        }
+        app.world().resource::<DrapeSchedule>().0
     }
 }
 
@@ -112,7 +123,7 @@ pub struct DrapeSchedulePlugin {
 
 impl DrapeSchedulePlugin {
     /// Simulates in `schedule`, which should be a fixed-timestep schedule.
-    pub(crate) fn new(schedule: impl ScheduleLabel) -> Self {
+    pub fn new(schedule: impl ScheduleLabel) -> Self {
         Self {
             schedule: schedule.intern(),
         }
@@ -139,9 +150,9 @@ impl Plugin for DrapeSchedulePlugin {
                 )
                     .chain(),
             )
-            .register_type::<(DrapeTimings, crate::cloth::plugin::DrapeSettings)>()
+            .register_type::<(DrapeTimings, DrapeSettings)>()
             .init_resource::<DrapeTimings>()
-            .init_resource::<crate::cloth::plugin::DrapeSettings>();
+            .init_resource::<DrapeSettings>();
         // A mark after each set times the stage that set ran.
         let sets = [
             DrapeSystems::Prepare,
@@ -163,3 +174,98 @@ impl Plugin for DrapeSchedulePlugin {
         );
     }
 }
+
+/// World-wide simulation parameters.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct DrapeSettings {
+    /// Gravity, m/s^2. Default: `(0, -9.81, 0)`.
+    pub gravity: Vec3,
+    /// When true, no cloth is stepped. Default: `false`.
+    pub paused: bool,
+    /// When a character, a collider or a followed entity moves so far in one fixed step that
+    /// it counts as a jump (a teleport, a respawn) rather than motion: colliders are then not
+    /// swept through the space between, and cloths following it ([`Cloth::follow`]) are
+    /// carried along rigidly. `None` takes every pose change as motion. Default:
+    /// [`Teleport::default`] (1 m or 60 degrees in one step).
+    pub teleport: Option<Teleport>,
+    /// The most threads that step cloths at once. `1` steps them one after another on the
+    /// schedule's thread; more step independent cloths at the same time on Bevy's
+    /// [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool) (its threads and the caller's), each
+    /// of them stepped as on one thread, so that several cloths give the same result
+    /// whatever the count. A single cloth is instead split over two threads
+    /// ([`ClothSolver::step_with`](crate::cloth::ClothSolver::step_with): at least 2048
+    /// particles, numbered so that the middle index cuts it along a short seam): its result
+    /// then differs from one thread's by the order of its sweeps, and is the same on every
+    /// run. `None` uses every thread of the pool. Default: `None`.
+    pub max_threads: Option<std::num::NonZeroUsize>,
+}
+impl Default for DrapeSettings {
+    fn default() -> Self {
+        Self {
+            gravity: Vec3::new(0.0, -9.81, 0.0),
+            paused: false,
+            teleport: Some(Teleport::default()),
+            max_threads: None,
+        }
+    }
+}
+
+/// Every valid collider at the current fixed step, as the cloths see them.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct StepColliders {
+    /// The colliders.
+    pub colliders: Vec<SolverCollider>,
+    /// Their entities, in the same order.
+    pub entities: Vec<Entity>,
+}
+/// The rigid pose (translation and rotation, scale left out) of a global transform, if it is
+/// finite.
+pub(crate) fn world_pose(global: &GlobalTransform) -> Option<RigidPose> {
+    let (scale, rotation, translation) = global.to_scale_rotation_translation();
+    (scale.is_finite() && rotation.is_finite() && translation.is_finite()).then(|| RigidPose {
+        translation: translation.into(),
+        rotation: rotation.normalize(),
+    })
+}
+
+/// The wind of the current fixed step, for the cloths.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct StepWind(pub WindField);
+
+/// A component stepped inside the substeps of the cloth on its entity (the fluid plugin's
+/// `FluidSimulation`): the cloth plugin calls it instead of stepping the cloth alone.
+pub trait ClothCoupling: Component<Mutability = bevy::ecs::component::Mutable> {
+    /// Steps `cloth` by `dt` with this coupled in, kept out of `colliders`.
+    fn step_with_cloth(
+        &mut self,
+        entity: Entity,
+        cloth: &mut ClothSolver,
+        settings: &SolverSettings,
+        colliders: &[SolverCollider],
+        gravity: Vec3,
+        dt: f32,
+    ) -> Result<(), ClothError>;
+}
+/// No coupling: the cloth plugin's own instance of its step (never on an entity).
+#[derive(Component)]
+pub struct NoCoupling(std::convert::Infallible);
+impl ClothCoupling for NoCoupling {
+    fn step_with_cloth(
+        &mut self,
+        _: Entity,
+        _: &mut ClothSolver,
+        _: &SolverSettings,
+        _: &[SolverCollider],
+        _: Vec3,
+        _: f32,
+    ) -> Result<(), ClothError> {
+        match self.0 {}
+    }
+}
+/// Present once a `ClothCouplingPlugin` steps the cloths (the plain step then stands down).
+#[derive(Resource, Default)]
+pub(crate) struct ClothCouplingInstalled;
+/// On every cloth's entity (required by `Cloth`), for plugins that must not name `Cloth`.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct IsCloth;

@@ -41,7 +41,7 @@ pub(crate) fn damp_rigid(x: &[Vec3A], v: &mut [Vec3A], masses: &[f32], k: f32) {
 /// [`damp_rigid`] on two halves split at `middle`, their sums and their updates each run
 /// through `join` (the same fit, its sums added in another order).
 pub(crate) fn damp_rigid_halves(
-    join: &dyn crate::cloth::Join,
+    join: &dyn crate::cloth::sim::parallel::Join,
     middle: usize,
     x: &[Vec3A],
     v: &mut [Vec3A],

@@ -2,7 +2,8 @@
 //! or per triangle (area strain), or the user's own colours or values per particle or per
 //! triangle ([`ClothPaint`]).
 
-use crate::cloth::{ClothSolver, EdgeKind};
+use crate::cloth::model::EdgeKind;
+use crate::cloth::sim::ClothSolver;
 use bevy::ecs::component::Component;
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::reflect::Reflect;
@@ -262,7 +263,8 @@ pub(crate) fn debug_colors(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::{ClothModel, ClothSolver, GridDesc};
+    use crate::cloth::model::{ClothModel, GridDesc};
+    use crate::cloth::sim::ClothSolver;
     use bevy::math::Vec3;
 
     #[test]

@@ -142,7 +142,7 @@ pub fn to_obj(mesh: &GridMesh, name: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::ClothModel;
+    use crate::cloth::model::ClothModel;
 
     #[test]
     fn the_poncho_has_a_round_hole_an_intact_outline_and_no_flipped_triangle() {

@@ -32,9 +32,9 @@ pub(crate) mod state;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod stretch_limits;
 pub(crate) mod volume;
-pub(crate) mod weld;
 pub mod wind_plugin;
 
+pub use crate::weld::{Welded, weld};
 pub use air::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
 pub use damping::RigidMotion;
 pub use debug_colors::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
@@ -46,12 +46,10 @@ pub use settings::{
     AdaptiveSubsteps, DampingMode, DivergenceBounds, ExactEdges, SolverMethod, SolverSettings,
 };
 pub(crate) use sim::SubstepCoupling;
-pub use sim::{
-    ClothSolver, Divergence, Join, OneThread, Pin, StepTimings, StrainStats, with_helper,
-};
+pub use sim::diagnostics::{Divergence, StrainStats};
+pub use sim::{ClothSolver, Join, OneThread, Pin, StepTimings, with_helper};
 pub use state::ClothState;
 pub use volume::VolumeSettings;
-pub use weld::{Welded, weld};
 
 /// The solver's kernels, for the crate's own benches and measuring harness (feature
 /// `internals`); not part of the API a game uses, and free to change.

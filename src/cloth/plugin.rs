@@ -1,7 +1,6 @@
 //! The Bevy side of the cloth: components, resources and the thin systems that build, step and
 //! draw [`ClothSolver`]s.
 
-use super::wind_plugin::StepWind;
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::asset::{AssetServer, Assets, LoadState};
 use bevy::ecs::query::QueryData;
@@ -17,17 +16,18 @@ use super::mesh::{vertex_normals, write_colors, write_normals};
 use super::model::ClothModel;
 use super::render_mesh::{ClothSimulationMesh, EmbeddedRender};
 use super::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use super::sim::{ClothSolver, Divergence, Join, OneThread, StepTimings, with_helper};
-use super::weld::{default_tolerance, weld};
-use crate::collide::plugin::{StepColliders, world_pose};
+use super::sim::diagnostics::Divergence;
+use super::sim::{ClothSolver, Join, OneThread, StepTimings, with_helper};
 use crate::collide::skin::{DrawnColliders, drawn_poses};
-use crate::collide::{
-    ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider, Teleport,
-};
+use crate::collide::{ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider};
 use crate::error::ClothError;
-use crate::fluid::plugin::FluidSimulation;
+use crate::files::{FileValue, FromFile};
 use crate::mesh::mesh_triangles;
-use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
+use crate::schedule::{
+    ClothCoupling, ClothCouplingInstalled, DrapeSchedule, DrapeSettings, DrapeSystems,
+    DrapeTimings, IsCloth, NoCoupling, StepColliders, StepWind, world_pose,
+};
+use crate::weld::{default_tolerance, weld};
 
 /// Makes an entity with a [`Mesh3d`] a cloth. The simulation is built from the mesh (in world
 /// space, through the entity's transform) in the first fixed step after the mesh is loaded;
@@ -48,7 +48,7 @@ use crate::schedule::{DrapeSchedule, DrapeSystems, DrapeTimings};
 /// ```
 #[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(Transform)]
+#[require(Transform, IsCloth)]
 pub struct Cloth {
     /// Vertices held at their rest position relative to this entity's transform: moving the
     /// entity moves them.
@@ -214,43 +214,6 @@ pub struct DefaultClothSettings(pub ClothSettings);
 #[reflect(Resource)]
 pub struct ClothDebugColors(pub DebugColorMode);
 
-/// World-wide simulation parameters.
-#[derive(Resource, Clone, Copy, Debug, PartialEq, Reflect)]
-#[reflect(Resource)]
-pub struct DrapeSettings {
-    /// Gravity, m/s^2. Default: `(0, -9.81, 0)`.
-    pub gravity: Vec3,
-    /// When true, no cloth is stepped. Default: `false`.
-    pub paused: bool,
-    /// When a character, a collider or a followed entity moves so far in one fixed step that
-    /// it counts as a jump (a teleport, a respawn) rather than motion: colliders are then not
-    /// swept through the space between, and cloths following it ([`Cloth::follow`]) are
-    /// carried along rigidly. `None` takes every pose change as motion. Default:
-    /// [`Teleport::default`] (1 m or 60 degrees in one step).
-    pub teleport: Option<Teleport>,
-    /// The most threads that step cloths at once. `1` steps them one after another on the
-    /// schedule's thread; more step independent cloths at the same time on Bevy's
-    /// [`ComputeTaskPool`](bevy::tasks::ComputeTaskPool) (its threads and the caller's), each
-    /// of them stepped as on one thread, so that several cloths give the same result
-    /// whatever the count. A single cloth is instead split over two threads
-    /// ([`ClothSolver::step_with`](crate::cloth::ClothSolver::step_with): at least 2048
-    /// particles, numbered so that the middle index cuts it along a short seam): its result
-    /// then differs from one thread's by the order of its sweeps, and is the same on every
-    /// run. `None` uses every thread of the pool. Default: `None`.
-    pub max_threads: Option<std::num::NonZeroUsize>,
-}
-
-impl Default for DrapeSettings {
-    fn default() -> Self {
-        Self {
-            gravity: Vec3::new(0.0, -9.81, 0.0),
-            paused: false,
-            teleport: Some(Teleport::default()),
-            max_threads: None,
-        }
-    }
-}
-
 /// The simulation of one cloth entity, added by `bevy_drape` once its mesh is loaded: the
 /// entity's [`ClothSolver`] (the core that steps it, free of ECS types) and how its mesh's
 /// vertices map to the solver's particles.
@@ -379,14 +342,37 @@ impl Plugin for ClothPlugin {
             ClothPaint,
         )>()
         .init_resource::<DefaultClothSettings>()
-        .init_resource::<DrapeSettings>()
         .init_resource::<ClothDebugColors>()
         .add_message::<ClothDiverged>()
-        .add_systems(schedule, step_cloths.in_set(DrapeSystems::Step))
+        .add_systems(
+            schedule,
+            step_cloths::<NoCoupling>
+                .in_set(DrapeSystems::Step)
+                .run_if(not(resource_exists::<ClothCouplingInstalled>)),
+        )
         .add_systems(
             PostUpdate,
             write_back_meshes.in_set(DrapeSystems::Writeback),
         );
+    }
+}
+
+/// Steps every cloth with the coupling `C` on its entity (if any) inside its substeps: water
+/// in a cloth (`DrapePlugins` adds it for the fluid plugin's `FluidSimulation`). Without
+/// it, the cloths step alone. One coupling type per App.
+pub struct ClothCouplingPlugin<C>(std::marker::PhantomData<fn() -> C>);
+
+impl<C> Default for ClothCouplingPlugin<C> {
+    fn default() -> Self {
+        Self(std::marker::PhantomData)
+    }
+}
+
+impl<C: ClothCoupling> Plugin for ClothCouplingPlugin<C> {
+    fn build(&self, app: &mut App) {
+        let schedule = DrapeSchedule::of(app);
+        app.init_resource::<ClothCouplingInstalled>()
+            .add_systems(schedule, step_cloths::<C>.in_set(DrapeSystems::Step));
     }
 }
 
@@ -561,13 +547,13 @@ fn build_cloths(
 /// above one, independent cloths at the same time on Bevy's compute task pool (each cloth is
 /// stepped exactly as on one thread, so the result does not depend on the thread count).
 #[allow(clippy::type_complexity)]
-fn step_cloths(
+fn step_cloths<C: ClothCoupling>(
     mut cloths: Query<(
         Entity,
         &Cloth,
         &mut ClothSimulation,
         Option<&ClothSettings>,
-        Option<&mut FluidSimulation>,
+        Option<&mut C>,
     )>,
     defaults: Res<DefaultClothSettings>,
     drape: Res<DrapeSettings>,
@@ -610,15 +596,15 @@ fn step_cloths(
                         simulation.sim.splits_in_two(&settings.solver)
                     }) =>
         {
-            for (entity, cloth, mut simulation, settings, mut fluid) in &mut cloths {
-                let fluid = fluid.as_deref_mut();
+            for (entity, cloth, mut simulation, settings, mut coupled) in &mut cloths {
+                let coupled = coupled.as_deref_mut();
                 let stepped = with_helper(pool, |join| {
                     step_cloth(
                         entity,
                         cloth,
                         &mut simulation,
                         settings,
-                        fluid,
+                        coupled,
                         &context,
                         join,
                     )
@@ -646,7 +632,8 @@ fn step_cloths(
                         let mut diverged = Vec::new();
                         loop {
                             let next = queue.lock().map(|mut q| q.next());
-                            let Ok(Some((k, (entity, cloth, simulation, settings, fluid)))) = next
+                            let Ok(Some((k, (entity, cloth, simulation, settings, coupled)))) =
+                                next
                             else {
                                 break;
                             };
@@ -655,7 +642,7 @@ fn step_cloths(
                                 cloth,
                                 simulation,
                                 *settings,
-                                fluid.as_deref_mut(),
+                                coupled.as_deref_mut(),
                                 context,
                                 &OneThread,
                             ) {
@@ -671,13 +658,13 @@ fn step_cloths(
             diverged.write_batch(results.into_iter().map(|(_, d)| d));
         }
         _ => {
-            for (entity, cloth, mut simulation, settings, mut fluid) in &mut cloths {
+            for (entity, cloth, mut simulation, settings, mut coupled) in &mut cloths {
                 if let Some(d) = step_cloth(
                     entity,
                     cloth,
                     &mut simulation,
                     settings,
-                    fluid.as_deref_mut(),
+                    coupled.as_deref_mut(),
                     &context,
                     &OneThread,
                 ) {
@@ -707,12 +694,12 @@ struct StepContext<'a> {
 }
 
 /// Steps one cloth (see [`step_cloths`]); what it diverged with, if it did.
-fn step_cloth(
+fn step_cloth<C: ClothCoupling>(
     entity: Entity,
     cloth: &Cloth,
     simulation: &mut ClothSimulation,
     settings: Option<&ClothSettings>,
-    fluid: Option<&mut FluidSimulation>,
+    coupled: Option<&mut C>,
     context: &StepContext,
     join: &dyn Join,
 ) -> Option<ClothDiverged> {
@@ -826,17 +813,16 @@ fn step_cloth(
     {
         sim.set_wind(wind, context.elapsed);
     }
-    // Water in the cloth steps inside the cloth's substeps, kept out of the same colliders.
-    let stepped = match fluid {
-        Some(fluid) => {
-            if let Err(err) = fluid.solver.set_colliders(&simulation.colliders) {
-                warn!("the fluid in cloth {entity}: its colliders are left out: {err}");
-                let _ = fluid.solver.set_colliders(&[]);
-            }
-            fluid
-                .solver
-                .step_with_cloth(sim, &settings.solver, context.drape.gravity, dt)
-        }
+    // What is coupled to the cloth (water in it) steps inside the cloth's substeps.
+    let stepped = match coupled {
+        Some(coupled) => coupled.step_with_cloth(
+            entity,
+            sim,
+            &settings.solver,
+            &simulation.colliders,
+            context.drape.gravity,
+            dt,
+        ),
         None => sim.step_with(&settings.solver, context.drape.gravity, dt, join),
     };
     if let Err(err) = stepped {
@@ -1076,3 +1062,11 @@ fn write_back_meshes(
         timings.write_back = start.elapsed();
     }
 }
+
+impl FileValue for ClothSettings {
+    const EXTENSION: &'static str = "cloth.ron";
+}
+
+/// On a cloth: its [`ClothSettings`] from a `.cloth.ron` file
+/// (`ClothSettingsFile::new(server.load("settings/x.cloth.ron"))`).
+pub type ClothSettingsFile = FromFile<ClothSettings>;

@@ -11,9 +11,9 @@ use bevy::reflect::Reflect;
 use super::debug_colors::{GREY, PaintTarget};
 use super::embedding::Embedding;
 use super::mesh::{vertex_normals, write_normals};
-use super::weld::{default_tolerance, weld};
 use crate::error::ClothError;
 use crate::mesh::mesh_triangles;
+use crate::weld::{default_tolerance, weld};
 
 /// Simulates a [`Cloth`](super::plugin::Cloth) on this mesh while the entity's own `Mesh3d`,
 /// finer, is what is drawn: each drawn vertex follows the simulated triangle it lies on at

@@ -236,7 +236,8 @@ fn straight_segments(model: &ClothModel) -> Straight {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::{GridDesc, PonchoDesc};
+    use crate::cloth::garment::PonchoDesc;
+    use crate::cloth::model::GridDesc;
 
     fn lengths_from(model: &ClothModel, source: u32) -> Vec<f32> {
         let mut out = Vec::new();

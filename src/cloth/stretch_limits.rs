@@ -173,7 +173,7 @@ pub fn straight_line_limits(rest: &[Vec3], edges: &[Edge]) -> Vec<StretchLimit> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cloth::{ClothModel, GridDesc};
+    use crate::cloth::model::{ClothModel, GridDesc};
     use bevy::math::Vec3A;
 
     #[test]

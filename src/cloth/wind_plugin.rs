@@ -6,8 +6,8 @@ use std::collections::HashSet;
 
 use bevy::prelude::*;
 
-use super::air::{Falloff, Gusts, WindField, WindShape, WindSourceDesc};
-use crate::schedule::{DrapeSchedule, DrapeSystems};
+use super::air::{Falloff, Gusts, WindShape, WindSourceDesc};
+use crate::schedule::{DrapeSchedule, DrapeSystems, StepWind};
 
 /// The wind everywhere: a velocity and its gusts. Absent, the air is still (but for
 /// [`WindSource`]s). A cloth feels the air when its [`SolverSettings::air`] is set.
@@ -111,10 +111,6 @@ impl WindSource {
         }
     }
 }
-
-/// The wind of the current fixed step, for the cloths.
-#[derive(Resource, Clone, Debug, Default)]
-pub(crate) struct StepWind(pub(crate) WindField);
 
 /// Gathers [`Wind`] and every [`WindSource`] once per fixed step, for the cloths.
 #[derive(Default)]

@@ -21,7 +21,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
 use bevy::prelude::*;
 
-use super::plugin::{AnimatedVelocity, ClothCollider, ColliderShape};
+use super::components::{AnimatedVelocity, ClothCollider, ColliderShape};
 use crate::schedule::{DrapeSchedule, DrapeSystems};
 
 /// Leaves an entity with an Avian [`Collider`] out of the cloths' colliders.

@@ -41,7 +41,6 @@ use bevy::math::Vec3A;
 use super::contact::ContactScratch;
 use super::shapes::{RigidPose, SolverCollider, SolverShape};
 use super::trimesh::Aabb;
-use crate::cloth::Edge;
 
 /// The share of the cloth's longest edge a collider's radius must stay below to take part.
 const THIN_RADIUS_SHARE: f32 = 0.6;
@@ -110,12 +109,11 @@ impl Core {
 
 impl EdgeContacts {
     /// The contacts of a cloth's `edges` (every edge of its triangles).
-    pub(crate) fn new(edges: &[Edge]) -> Self {
-        let longest = edges.iter().map(|e| e.rest_length).fold(0.0f32, f32::max);
+    pub(crate) fn new(edges: Vec<[u32; 2]>, longest: f32) -> Self {
         Self {
-            edges: edges.iter().map(|e| e.particles).collect(),
-            thin_radius: THIN_RADIUS_SHARE * longest,
             edge_bounds: Vec::with_capacity(edges.len()),
+            edges,
+            thin_radius: THIN_RADIUS_SHARE * longest,
             ..Self::default()
         }
     }

@@ -8,6 +8,7 @@
 
 #[cfg(feature = "avian")]
 pub mod avian;
+pub(crate) mod components;
 pub(crate) mod contact;
 pub(crate) mod edge_contacts;
 pub mod motion;

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use bevy::math::{Quat, Vec3A};
 
-use super::trimesh::{Aabb, ClosestPoint, TriMesh};
+use super::trimesh::{Aabb, TriMesh, mesh_distance};
 use crate::error::ColliderError;
 
 /// A rigid pose: rotation, then translation.
@@ -152,9 +152,7 @@ impl SolverShape {
                 sphere_distance(p - axis_point, *radius, reach)
             }
             SolverShape::Plane => (p.y < reach).then_some((p.y, Vec3A::Y)),
-            SolverShape::TriangleMesh(mesh) => {
-                Some(mesh_distance(mesh, p, &mesh.closest_point(p, reach)?))
-            }
+            SolverShape::TriangleMesh(mesh) => mesh.signed_distance(p, reach),
         }
     }
 
@@ -215,27 +213,6 @@ impl SolverShape {
             SolverShape::TriangleMesh(mesh) => Some(mesh.bounds()),
         }
     }
-}
-
-/// The signed distance and outward normal of `p` from its closest point on `mesh` (see
-/// [`SolverShape::signed_distance`]).
-#[inline]
-fn mesh_distance(mesh: &TriMesh, p: Vec3A, closest: &ClosestPoint) -> (f32, Vec3A) {
-    let offset = p - closest.point;
-    let inside = mesh.is_closed() && offset.dot(closest.normal) < 0.0;
-    let n = if closest.distance <= 1e-7 {
-        closest.normal
-    } else if inside {
-        -offset / closest.distance
-    } else {
-        offset / closest.distance
-    };
-    let d = if inside {
-        -closest.distance
-    } else {
-        closest.distance
-    };
-    (d, n)
 }
 
 #[inline(always)]

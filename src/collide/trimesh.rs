@@ -20,8 +20,8 @@
 
 use bevy::math::{Vec3, Vec3A};
 
-use crate::cloth::weld::{default_tolerance, weld};
 use crate::error::ColliderError;
+use crate::weld::{default_tolerance, weld};
 
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,6 +163,12 @@ pub(crate) struct Crossing {
 }
 
 impl TriMesh {
+    /// The signed distance of `p` from the surface (negative inside a closed mesh) and the
+    /// outward normal, if the surface is within `reach`.
+    pub(crate) fn signed_distance(&self, p: Vec3A, reach: f32) -> Option<(f32, Vec3A)> {
+        Some(mesh_distance(self, p, &self.closest_point(p, reach)?))
+    }
+
     /// Builds the hierarchy. Degenerate (zero-area) triangles are left out. Errors: no
     /// triangles left, an index out of range, a non-finite vertex.
     pub fn new(vertices: &[Vec3], indices: &[u32]) -> Result<Self, ColliderError> {
@@ -540,6 +546,27 @@ pub(crate) fn closest_point_on_triangle(
     (a + ab * (vb * denom) + ac * (vc * denom), Face)
 }
 
+/// The signed distance and outward normal of `p` from its closest point on `mesh` (see
+/// [`SolverShape::signed_distance`](super::SolverShape::signed_distance)).
+#[inline]
+pub(crate) fn mesh_distance(mesh: &TriMesh, p: Vec3A, closest: &ClosestPoint) -> (f32, Vec3A) {
+    let offset = p - closest.point;
+    let inside = mesh.is_closed() && offset.dot(closest.normal) < 0.0;
+    let n = if closest.distance <= 1e-7 {
+        closest.normal
+    } else if inside {
+        -offset / closest.distance
+    } else {
+        offset / closest.distance
+    };
+    let d = if inside {
+        -closest.distance
+    } else {
+        closest.distance
+    };
+    (d, n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -683,8 +710,7 @@ mod tests {
             let (v, idx) = dented_sphere(&mut rng, rings, segments, 0.3);
             let mesh = TriMesh::new(&v, &idx).unwrap();
             assert!(mesh.is_closed());
-            let shape =
-                crate::collide::SolverShape::TriangleMesh(std::sync::Arc::new(mesh.clone()));
+            let shape = mesh.clone();
             for _ in 0..3000 {
                 let p = rng.point(1.4);
                 let Some((d, n)) = shape.signed_distance(p, 0.15) else {
@@ -736,7 +762,7 @@ mod tests {
         let mesh = TriMesh::new(&v, &idx).unwrap();
         assert!(mesh.is_closed());
         assert_eq!(mesh.thin_vertex_count(), 0);
-        let shape = crate::collide::SolverShape::TriangleMesh(std::sync::Arc::new(mesh));
+        let shape = mesh;
         let (d, n) = shape
             .signed_distance(Vec3A::new(0.3, 0.9, 0.0), 1.0)
             .unwrap();
@@ -761,9 +787,7 @@ mod tests {
             .flatten()
             .copied()
             .collect();
-        let shape = crate::collide::SolverShape::TriangleMesh(std::sync::Arc::new(
-            TriMesh::new(&v, &open).unwrap(),
-        ));
+        let shape = TriMesh::new(&v, &open).unwrap();
         let mut found = 0;
         for _ in 0..2000 {
             let p = rng.point(1.0);

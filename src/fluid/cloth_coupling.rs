@@ -26,9 +26,7 @@
 
 use bevy::math::Vec3A;
 
-use super::FluidSolver;
 use super::neighbours::{bucket, cell_of};
-use crate::cloth::SubstepCoupling;
 
 /// The contacts between a fluid and a cloth: the cloth's triangles in a hashed grid, each
 /// fluid particle's candidate triangles for the substep, and what the last step did.
@@ -54,9 +52,9 @@ pub struct ClothContacts {
     /// The impulse the fluid gave the cloth in the last step, N s.
     impulse: Vec3A,
     /// The fluid particles' mass and radius, and the substep's length.
-    mass: f32,
-    radius: f32,
-    h: f32,
+    pub(super) mass: f32,
+    pub(super) radius: f32,
+    pub(super) h: f32,
 }
 
 impl ClothContacts {
@@ -80,7 +78,7 @@ impl ClothContacts {
     /// Sorts the triangles at the cloth's positions `x` into the grid, each over its bounds
     /// grown by `2 r` (the cloth and the fluid move a little within the substep), and finds
     /// each fluid particle's (at `xf`) candidate triangles.
-    fn find_candidates(&mut self, xf: &[Vec3A], x: &[Vec3A], triangles: &[[u32; 3]]) {
+    pub(super) fn find_candidates(&mut self, xf: &[Vec3A], x: &[Vec3A], triangles: &[[u32; 3]]) {
         let r = self.radius;
         let mut longest = 0.0f32;
         for t in triangles {
@@ -175,7 +173,7 @@ impl ClothContacts {
     /// cloth's triangles (particles `x`, at `x_prev`, inverse masses `w`), both ways (see the
     /// module docs).
     #[allow(clippy::too_many_arguments)]
-    fn project(
+    pub(super) fn project(
         &mut self,
         xf: &mut [Vec3A],
         xf_prev: &[Vec3A],
@@ -241,54 +239,5 @@ impl ClothContacts {
                 self.impulse -= push / self.h;
             }
         }
-    }
-}
-
-/// The fluid as the cloth's step sees it (`SubstepCoupling`).
-pub(crate) struct FluidInCloth<'a> {
-    pub(crate) fluid: &'a mut FluidSolver,
-    /// Density sweeps per cloth substep, spread over its iterations.
-    pub(crate) sweeps: u32,
-    /// The cloth's iterations per substep, and the current one.
-    pub(crate) iterations: u32,
-    pub(crate) iteration: u32,
-    /// The current substep, and how many the cloth takes.
-    pub(crate) substep: u32,
-    pub(crate) substeps: u32,
-}
-
-impl SubstepCoupling for FluidInCloth<'_> {
-    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32) {
-        self.fluid.predict(h);
-        let (radius, mass) = (
-            self.fluid.settings().particle_radius,
-            self.fluid.particle_mass(),
-        );
-        let (xf, _, contacts) = self.fluid.contact_parts();
-        contacts.radius = radius;
-        contacts.mass = mass;
-        contacts.h = h;
-        contacts.find_candidates(xf, x, triangles);
-        self.iteration = 0;
-    }
-
-    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]) {
-        let t = (self.substep + 1) as f32 / self.substeps as f32;
-        // Iteration k of n takes ceil((k + 1) s / n) - ceil(k s / n) of the substep's s
-        // sweeps: the first iteration one at least, the rest spread evenly.
-        let (k, n) = (self.iteration, self.iterations.max(1));
-        let due = ((k + 1) * self.sweeps).div_ceil(n) - (k * self.sweeps).div_ceil(n);
-        self.iteration += 1;
-        for _ in 0..due {
-            self.fluid.project_density();
-        }
-        self.fluid.project_colliders(t);
-        let (xf, xf_prev, contacts) = self.fluid.contact_parts();
-        contacts.project(xf, xf_prev, x, x_prev, w, triangles);
-    }
-
-    fn end_substep(&mut self, h: f32) {
-        self.fluid.end_substep(h);
-        self.substep += 1;
     }
 }

@@ -4,7 +4,7 @@
 use bevy::math::Vec3;
 use bevy::reflect::Reflect;
 
-use super::FluidSolver;
+use super::solver::FluidSolver;
 use crate::error::FluidError;
 
 /// A round jet: `rate` particles per second leave a disc of `radius` at `origin` with
@@ -68,7 +68,7 @@ impl JetEmitter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fluid::FluidSettings;
+    use crate::fluid::settings::FluidSettings;
 
     /// Over whole seconds the jet makes `rate` particles a second, whatever the step, stops
     /// at its count, and puts every particle on its disc.

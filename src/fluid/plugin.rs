@@ -9,9 +9,12 @@
 use bevy::prelude::*;
 
 use super::{FluidJet, FluidSettings, FluidSolver, JetEmitter};
-use crate::cloth::plugin::{Cloth, DrapeSettings};
-use crate::collide::plugin::StepColliders;
-use crate::schedule::{DrapeSchedule, DrapeSystems};
+use crate::cloth::{ClothSolver, SolverSettings};
+use crate::collide::SolverCollider;
+use crate::error::ClothError;
+use crate::schedule::{
+    ClothCoupling, DrapeSchedule, DrapeSettings, DrapeSystems, IsCloth, StepColliders,
+};
 
 /// Where a fluid's particles come from.
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -41,7 +44,7 @@ pub struct Fluid {
 /// The simulated fluid of a [`Fluid`], made at its first step.
 #[derive(Component, Debug)]
 pub struct FluidSimulation {
-    pub(crate) solver: FluidSolver,
+    solver: FluidSolver,
     /// What a jet carries from step to step.
     emitter: JetEmitter,
 }
@@ -50,6 +53,25 @@ impl FluidSimulation {
     /// The solver.
     pub fn solver(&self) -> &FluidSolver {
         &self.solver
+    }
+}
+
+/// Water in a cloth steps inside the cloth's substeps, kept out of the same colliders.
+impl ClothCoupling for FluidSimulation {
+    fn step_with_cloth(
+        &mut self,
+        entity: Entity,
+        cloth: &mut ClothSolver,
+        settings: &SolverSettings,
+        colliders: &[SolverCollider],
+        gravity: Vec3,
+        dt: f32,
+    ) -> Result<(), ClothError> {
+        if let Err(err) = self.solver.set_colliders(colliders) {
+            warn!("the fluid in cloth {entity}: its colliders are left out: {err}");
+            let _ = self.solver.set_colliders(&[]);
+        }
+        self.solver.step_with_cloth(cloth, settings, gravity, dt)
     }
 }
 
@@ -132,7 +154,7 @@ fn emit_fluids(mut fluids: Query<(Entity, &Fluid, &mut FluidSimulation)>, time: 
 
 /// Steps every fluid that is not in a cloth (those step with their cloth).
 fn step_lone_fluids(
-    mut fluids: Query<(Entity, &mut FluidSimulation), Without<Cloth>>,
+    mut fluids: Query<(Entity, &mut FluidSimulation), Without<IsCloth>>,
     colliders: Option<Res<StepColliders>>,
     drape: Res<DrapeSettings>,
     time: Res<Time>,

@@ -37,10 +37,11 @@
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::cloth_coupling::{ClothContacts, FluidInCloth};
+use super::cloth_coupling::ClothContacts;
 use super::kernels::Kernels;
 use super::neighbours::Neighbours;
 use super::settings::FluidSettings;
+use crate::cloth::SubstepCoupling;
 use crate::cloth::{ClothSolver, OneThread, SolverSettings};
 use crate::collide::SolverCollider;
 use crate::error::{ClothError, FluidError};
@@ -594,6 +595,54 @@ impl FluidSolver {
                 self.divergences += 1;
             }
         }
+    }
+}
+
+/// The fluid as the cloth's step sees it (`SubstepCoupling`).
+pub(crate) struct FluidInCloth<'a> {
+    pub(crate) fluid: &'a mut FluidSolver,
+    /// Density sweeps per cloth substep, spread over its iterations.
+    pub(crate) sweeps: u32,
+    /// The cloth's iterations per substep, and the current one.
+    pub(crate) iterations: u32,
+    pub(crate) iteration: u32,
+    /// The current substep, and how many the cloth takes.
+    pub(crate) substep: u32,
+    pub(crate) substeps: u32,
+}
+impl SubstepCoupling for FluidInCloth<'_> {
+    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32) {
+        self.fluid.predict(h);
+        let (radius, mass) = (
+            self.fluid.settings().particle_radius,
+            self.fluid.particle_mass(),
+        );
+        let (xf, _, contacts) = self.fluid.contact_parts();
+        contacts.radius = radius;
+        contacts.mass = mass;
+        contacts.h = h;
+        contacts.find_candidates(xf, x, triangles);
+        self.iteration = 0;
+    }
+
+    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]) {
+        let t = (self.substep + 1) as f32 / self.substeps as f32;
+        // Iteration k of n takes ceil((k + 1) s / n) - ceil(k s / n) of the substep's s
+        // sweeps: the first iteration one at least, the rest spread evenly.
+        let (k, n) = (self.iteration, self.iterations.max(1));
+        let due = ((k + 1) * self.sweeps).div_ceil(n) - (k * self.sweeps).div_ceil(n);
+        self.iteration += 1;
+        for _ in 0..due {
+            self.fluid.project_density();
+        }
+        self.fluid.project_colliders(t);
+        let (xf, xf_prev, contacts) = self.fluid.contact_parts();
+        contacts.project(xf, xf_prev, x, x_prev, w, triangles);
+    }
+
+    fn end_substep(&mut self, h: f32) {
+        self.fluid.end_substep(h);
+        self.substep += 1;
     }
 }
 

@@ -17,14 +17,14 @@ use super::gizmos::ColliderGizmos;
 use crate::cloth::air::AirSettings;
 use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::plugin::{
-    ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings, DrapeSettings,
+    ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings,
 };
 use crate::cloth::settings::{DampingMode, ExactEdges, SolverMethod};
 use crate::cloth::wind_plugin::Wind;
 use crate::collide::plugin::ClothCollider;
 use crate::fluid::FluidSettings;
 use crate::fluid::plugin::{Fluid, FluidSimulation};
-use crate::schedule::{DrapeSchedule, DrapeTimings};
+use crate::schedule::{DrapeSchedule, DrapeSettings, DrapeTimings};
 
 /// Adds the panel (and `EguiPlugin` if the App has none).
 pub struct DrapePanelPlugin;

@@ -19,10 +19,10 @@ use super::clip::{Clip, ClipDesc, ClipError};
 use super::humanoid::{BoneProxy, humanoid_proxies};
 use super::ik::{AngleRates, IkChain, IkError, IkResult, IkScratch, IkSettings, IkTracking, solve};
 use super::rig::{BoneState, Pose, PoseRate, Rig};
-use crate::cloth::plugin::DrapeSettings;
-use crate::collide::plugin::{AnimatedVelocity, ClothCollider, world_pose};
+use crate::collide::components::{AnimatedVelocity, ClothCollider};
 use crate::collide::{ContactMaterial, FrameStep, FrameTracker};
-use crate::schedule::{DrapeSchedule, DrapeSystems};
+use crate::files::{FileValue, FromFile};
+use crate::schedule::{DrapeSchedule, DrapeSettings, DrapeSystems, world_pose};
 
 /// A clip file, as loaded; bound to a rig when a [`ClipPlayer`] plays it.
 #[derive(Asset, TypePath, Clone, Debug, PartialEq)]
@@ -806,3 +806,11 @@ fn interpolate_bones(mut bones: Query<(&mut Transform, &BoneEntity)>, fixed: Res
         transform.rotation = bone.previous.rotation.slerp(bone.current.rotation, alpha);
     }
 }
+
+impl FileValue for BoneColliders {
+    const EXTENSION: &'static str = "colliders.ron";
+}
+
+/// On a character: its [`BoneColliders`] from a `.colliders.ron` file
+/// (`BoneCollidersFile::new(server.load("x.colliders.ron"))`).
+pub type BoneCollidersFile = FromFile<BoneColliders>;

@@ -25,18 +25,16 @@ use crate::collide::thin::ThinFeatureContacts;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::{ClothError, ColliderError};
 
-mod diagnostics;
+pub(crate) mod diagnostics;
 mod halves;
-mod parallel;
+pub(crate) mod parallel;
 mod passes;
 mod step;
 mod timings;
 
-pub use diagnostics::{Divergence, StrainStats};
 use halves::Halves;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
-pub(crate) use step::SubstepCoupling;
 use timings::Laps;
 pub use timings::StepTimings;
 
@@ -210,7 +208,14 @@ impl ClothSolver {
                 None => curved_pairs.push(*pair),
             }
         }
-        let edge_contacts = EdgeContacts::new(&model.edges);
+        let edge_contacts = EdgeContacts::new(
+            model.edges.iter().map(|e| e.particles).collect(),
+            model
+                .edges
+                .iter()
+                .map(|e| e.rest_length)
+                .fold(0.0f32, f32::max),
+        );
         Self {
             limit_batches,
             edge_lambdas: vec![0.0; model.edges.len()],
@@ -956,4 +961,19 @@ fn edge_batches(edges: &[Edge], n: usize, keep: impl Fn(EdgeKind) -> bool) -> Pa
         n,
         true,
     )
+}
+
+/// Something stepped inside a cloth's substeps, in the same iterations as the cloth's
+/// constraints (a fluid, `fluid/cloth_coupling.rs`): it predicts when a substep begins,
+/// projects its own constraints and its contacts with the cloth's particles in each
+/// iteration (after the colliders, before the cloth's own constraints, which then carry its
+/// pushes on), and updates its velocities when the substep ends, over the same `h`.
+pub(crate) trait SubstepCoupling {
+    /// A substep of length `h` begins; `x` are the cloth's predicted positions.
+    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32);
+    /// One iteration: the cloth's positions `x` (at `x_prev` when the substep began) and
+    /// inverse masses `w`, to be moved by the contacts.
+    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]);
+    /// The substep ends.
+    fn end_substep(&mut self, h: f32);
 }

@@ -39,11 +39,11 @@
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
-use super::ClothSolver;
 use super::halves::{Halves, Sweep};
 use super::parallel::Join;
 use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
 use super::timings::{Laps, StepTimings};
+use super::{ClothSolver, SubstepCoupling};
 use crate::cloth::constraints::{Projection, project_bending};
 use crate::cloth::fast_projection::FastProjection;
 use crate::cloth::mass_spring::auto_substeps;
@@ -585,21 +585,6 @@ impl ClothSolver {
         }
         self.timings.add(&t);
     }
-}
-
-/// Something stepped inside a cloth's substeps, in the same iterations as the cloth's
-/// constraints (a fluid, `fluid/cloth_coupling.rs`): it predicts when a substep begins,
-/// projects its own constraints and its contacts with the cloth's particles in each
-/// iteration (after the colliders, before the cloth's own constraints, which then carry its
-/// pushes on), and updates its velocities when the substep ends, over the same `h`.
-pub(crate) trait SubstepCoupling {
-    /// A substep of length `h` begins; `x` are the cloth's predicted positions.
-    fn begin_substep(&mut self, x: &[Vec3A], triangles: &[[u32; 3]], h: f32);
-    /// One iteration: the cloth's positions `x` (at `x_prev` when the substep began) and
-    /// inverse masses `w`, to be moved by the contacts.
-    fn iterate(&mut self, x: &mut [Vec3A], x_prev: &[Vec3A], w: &[f32], triangles: &[[u32; 3]]);
-    /// The substep ends.
-    fn end_substep(&mut self, h: f32);
 }
 
 /// A run of particles: their positions, previous positions, velocities and inverse masses,

@@ -279,7 +279,7 @@ pub fn run_headless(scene: PonchoScene, steps: u32) -> Result<PonchoRun, String>
 }
 
 /// [`run_headless`] on an app [`headless_app`] made (with, say, other
-/// [`DrapeSettings`](bevy_drape::cloth::plugin::DrapeSettings)).
+/// [`DrapeSettings`](bevy_drape::schedule::DrapeSettings)).
 pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
     use bevy::time::TimeUpdateStrategy;
     use std::time::{Duration, Instant};
