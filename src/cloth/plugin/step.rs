@@ -1,0 +1,348 @@
+//! Stepping every cloth in the drape schedule: pins, colliders, the followed entity, the
+//! wind, the step, divergence.
+
+use bevy::log::{error, warn};
+use bevy::math::Vec3A;
+use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
+
+use super::components::{
+    Cloth, ClothDiverged, ClothSettings, ClothSimulation, DefaultClothSettings, OnDivergence,
+};
+use crate::cloth::sim::{Join, OneThread, StepTimings, with_helper};
+use crate::collide::SolverCollider;
+use crate::schedule::{
+    ClothCoupling, DrapeSettings, DrapeTimings, StepColliders, StepWind, world_pose,
+};
+
+/// Moves pins and attachments to this step's targets, steps every cloth and checks it for
+/// divergence: one cloth after another on this thread, or with [`DrapeSettings::max_threads`]
+/// above one, independent cloths at the same time on Bevy's compute task pool (each cloth is
+/// stepped exactly as on one thread, so the result does not depend on the thread count).
+#[allow(clippy::type_complexity)]
+pub(super) fn step_cloths<C: ClothCoupling>(
+    mut cloths: Query<(
+        Entity,
+        &Cloth,
+        &mut ClothSimulation,
+        Option<&ClothSettings>,
+        Option<&mut C>,
+    )>,
+    defaults: Res<DefaultClothSettings>,
+    drape: Res<DrapeSettings>,
+    time: Res<Time>,
+    transforms: TransformHelper,
+    mut diverged: MessageWriter<ClothDiverged>,
+    (colliders, wind, timings): (
+        Option<Res<StepColliders>>,
+        Option<Res<StepWind>>,
+        Option<ResMut<DrapeTimings>>,
+    ),
+) {
+    let context = StepContext {
+        defaults: &defaults.0,
+        drape: &drape,
+        dt: time.delta_secs(),
+        elapsed: time.elapsed_secs(),
+        transforms: &transforms,
+        colliders: colliders.as_deref().map_or(&[], |c| &c.colliders),
+        wind: wind.as_deref().map(|w| &w.0),
+    };
+    let pool = bevy::tasks::ComputeTaskPool::try_get();
+    // The scope's own thread works too.
+    let available = pool.map_or(1, |p| p.thread_num() + 1);
+    let allowed = drape
+        .max_threads
+        .map_or(available, |cap| cap.get().min(available));
+    let count = cloths.iter().len();
+    let threads = allowed.min(count);
+    match pool {
+        // One cloth that splits, two threads: its sweeps in two halves at once
+        // (`ClothSolver::step_with`).
+        Some(pool)
+            if count == 1
+                && allowed > 1
+                && cloths
+                    .iter_mut()
+                    .all(|(_, _, mut simulation, settings, _)| {
+                        let settings = settings.unwrap_or(context.defaults);
+                        simulation.sim.splits_in_two(&settings.solver)
+                    }) =>
+        {
+            for (entity, cloth, mut simulation, settings, mut coupled) in &mut cloths {
+                let coupled = coupled.as_deref_mut();
+                let stepped = with_helper(pool, |join| {
+                    step_cloth(
+                        entity,
+                        cloth,
+                        &mut simulation,
+                        settings,
+                        coupled,
+                        &context,
+                        join,
+                    )
+                });
+                if let Some(d) = stepped {
+                    diverged.write(d);
+                }
+            }
+        }
+        Some(pool) if threads > 1 => {
+            // `threads` workers take the cloths one at a time from a shared queue, the
+            // costliest (by its last step) first so that the last ones to finish are short:
+            // the scope's thread starts at once and the pool's join as they wake, so a late
+            // thread costs no more than the cloth it would have stepped. Each cloth's step is
+            // the same whichever thread runs it; the messages go out in the query's order.
+            let mut all: Vec<_> = cloths.iter_mut().enumerate().collect();
+            all.sort_by_key(|(_, (_, _, simulation, _, _))| {
+                std::cmp::Reverse(simulation.sim.last_timings().total())
+            });
+            let queue = std::sync::Mutex::new(all.iter_mut().map(|(k, item)| (*k, item)));
+            let (queue, context) = (&queue, &context);
+            let results = pool.scope(|scope| {
+                for _ in 0..threads {
+                    scope.spawn(async move {
+                        let mut diverged = Vec::new();
+                        loop {
+                            let next = queue.lock().map(|mut q| q.next());
+                            let Ok(Some((k, (entity, cloth, simulation, settings, coupled)))) =
+                                next
+                            else {
+                                break;
+                            };
+                            if let Some(d) = step_cloth(
+                                *entity,
+                                cloth,
+                                simulation,
+                                *settings,
+                                coupled.as_deref_mut(),
+                                context,
+                                &OneThread,
+                            ) {
+                                diverged.push((k, d));
+                            }
+                        }
+                        diverged
+                    });
+                }
+            });
+            let mut results: Vec<_> = results.into_iter().flatten().collect();
+            results.sort_unstable_by_key(|(k, _)| *k);
+            diverged.write_batch(results.into_iter().map(|(_, d)| d));
+        }
+        _ => {
+            for (entity, cloth, mut simulation, settings, mut coupled) in &mut cloths {
+                if let Some(d) = step_cloth(
+                    entity,
+                    cloth,
+                    &mut simulation,
+                    settings,
+                    coupled.as_deref_mut(),
+                    &context,
+                    &OneThread,
+                ) {
+                    diverged.write(d);
+                }
+            }
+        }
+    }
+    if let Some(mut timings) = timings {
+        let mut parts = StepTimings::default();
+        for (_, _, simulation, _, _) in &cloths {
+            parts.add(simulation.sim.last_timings());
+        }
+        timings.cloth_parts = parts;
+    }
+}
+
+/// What every cloth's step reads from the world.
+struct StepContext<'a> {
+    defaults: &'a ClothSettings,
+    drape: &'a DrapeSettings,
+    dt: f32,
+    elapsed: f32,
+    transforms: &'a TransformHelper<'a, 'a>,
+    colliders: &'a [SolverCollider],
+    wind: Option<&'a crate::cloth::air::WindField>,
+}
+
+/// Steps one cloth (see [`step_cloths`]); what it diverged with, if it did.
+fn step_cloth<C: ClothCoupling>(
+    entity: Entity,
+    cloth: &Cloth,
+    simulation: &mut ClothSimulation,
+    settings: Option<&ClothSettings>,
+    coupled: Option<&mut C>,
+    context: &StepContext,
+    join: &dyn Join,
+) -> Option<ClothDiverged> {
+    let dt = context.dt;
+    let settings = settings.unwrap_or(context.defaults);
+    let sim = &mut simulation.sim;
+    simulation.render_from.clone_from(&sim.state().positions);
+    if context.drape.paused {
+        return None;
+    }
+    if let Some(frozen_with) = &simulation.frozen_with {
+        if frozen_with == settings {
+            return None;
+        }
+        info!("cloth {entity}: settings changed, stepping again");
+        simulation.frozen_with = None;
+    }
+    if let Err(err) = settings.solver.validate() {
+        if !simulation.warned_invalid_settings {
+            warn!("cloth {entity} is not stepped: {err}");
+            simulation.warned_invalid_settings = true;
+        }
+        return None;
+    }
+    simulation.warned_invalid_settings = false;
+    if settings.density != sim.model().density
+        && let Err(err) = sim.set_density(settings.density)
+    {
+        warn!(
+            "cloth {entity}: {err}; keeping density {}",
+            sim.model().density
+        );
+    }
+    // The world's colliders, then this cloth's ground and container.
+    simulation.colliders.clear();
+    simulation.colliders.extend_from_slice(context.colliders);
+    settings.plane_colliders(&mut simulation.colliders);
+    // The world's colliders were checked when gathered (each reported with its entity);
+    // what is left out here is this cloth's own ground or container.
+    match sim.set_colliders(&simulation.colliders) {
+        Err(err) if !simulation.warned_planes => {
+            warn!("cloth {entity}: its ground or container is left out: {err}");
+            simulation.warned_planes = true;
+        }
+        Err(_) => {}
+        Ok(()) => simulation.warned_planes = false,
+    }
+
+    if let Ok(global) = context.transforms.compute_global_transform(entity) {
+        for &v in &cloth.pinned_vertices {
+            if let (Some(&rest), Some(&p)) = (
+                simulation.local_rest.get(v as usize),
+                simulation.vertex_to_particle.get(v as usize),
+            ) {
+                sim.set_pin_target(p, global.transform_point(rest));
+            }
+        }
+    }
+    for attachment in &cloth.attachments {
+        match context
+            .transforms
+            .compute_global_transform(attachment.target)
+        {
+            Ok(target) => {
+                if let Some(&p) = simulation
+                    .vertex_to_particle
+                    .get(attachment.vertex as usize)
+                {
+                    sim.set_pin_target(p, target.transform_point(attachment.offset));
+                }
+            }
+            Err(err) => warn!(
+                "cloth {entity}: attachment of vertex {} to {}: {err}",
+                attachment.vertex, attachment.target
+            ),
+        }
+    }
+
+    // The entity the cloth follows: its motion over this step, a share of it carried.
+    simulation.followed = None;
+    if let Some(target) = cloth.follow {
+        match context
+            .transforms
+            .compute_global_transform(target)
+            .ok()
+            .and_then(|g| world_pose(&g))
+        {
+            Some(pose) => {
+                let frame = simulation
+                    .follow
+                    .step(pose, dt, context.drape.teleport.as_ref());
+                sim.follow_frame(&frame, settings.inertia);
+                simulation.followed = Some(frame);
+                simulation.warned_follow = false;
+            }
+            None => {
+                if !simulation.warned_follow {
+                    warn!(
+                        "cloth {entity} follows {target}, which has no valid transform: \
+                         simulated in the world alone"
+                    );
+                    simulation.warned_follow = true;
+                }
+                simulation.follow.reset();
+            }
+        }
+    }
+
+    if settings.solver.air.is_some()
+        && let Some(wind) = context.wind
+    {
+        sim.set_wind(wind, context.elapsed);
+    }
+    // What is coupled to the cloth (water in it) steps inside the cloth's substeps.
+    let stepped = match coupled {
+        Some(coupled) => coupled.step_with_cloth(
+            entity,
+            sim,
+            &settings.solver,
+            &simulation.colliders,
+            context.drape.gravity,
+            dt,
+        ),
+        None => sim.step_with(&settings.solver, context.drape.gravity, dt, join),
+    };
+    if let Err(err) = stepped {
+        if !simulation.warned_step_input {
+            warn!("cloth {entity} is not stepped: {err}");
+            simulation.warned_step_input = true;
+        }
+        return None;
+    }
+    simulation.warned_step_input = false;
+    if settings.solver.volume.is_some()
+        && let Some(err) = sim.volume_error()
+        && !simulation.warned_volume
+    {
+        warn!("cloth {entity}: {err}; stepped without it");
+        simulation.warned_volume = true;
+    }
+
+    if let Some(divergence) = sim.divergence(&settings.divergence) {
+        let method = settings.solver.method;
+        match settings.on_divergence {
+            OnDivergence::Freeze => {
+                error!(
+                    "cloth {entity} diverged with {} ({divergence}); frozen at the previous \
+                     step until its settings change",
+                    method.name()
+                );
+                let state = sim.state_mut();
+                state.positions.clone_from(&simulation.render_from);
+                state.previous_positions.clone_from(&simulation.render_from);
+                state.velocities.fill(Vec3A::ZERO);
+                simulation.frozen_with = Some(*settings);
+            }
+            OnDivergence::Reset => {
+                error!(
+                    "cloth {entity} diverged with {} ({divergence}); reset to its rest shape",
+                    method.name()
+                );
+                simulation.reset();
+            }
+        }
+        return Some(ClothDiverged {
+            cloth: entity,
+            method,
+            divergence,
+            response: settings.on_divergence,
+        });
+    }
+    None
+}
