@@ -1,10 +1,13 @@
 //! [`ClothSolver`]: one cloth's model, state, pins and solver scratch, and its fixed step. The
 //! substep pipeline every solver method runs through is in `step.rs`, made of the passes in
-//! `passes.rs`; what can be read off a cloth is in `diagnostics.rs`.
+//! `passes.rs`; the adaptive step is in `adaptive.rs`; the pins, the dragged particle and the
+//! tethers are in `pins.rs`; the colliders and the followed frame in `colliders.rs`; the wind
+//! in `wind.rs`; the volume constraint in `volume.rs`; what can be read off a cloth is in
+//! `diagnostics.rs`.
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
-use super::air::{GustField, WindField, air_accelerations};
+use super::air::air_accelerations;
 use super::batch::PairBatches;
 use super::constraints::Tether;
 use super::fast_projection::FastProjection;
@@ -15,31 +18,33 @@ use super::ordering::{apply_order, colour_order};
 use super::rest_paths::RestPaths;
 use super::rims::{Rim, find_rims, find_rings};
 use super::self_collision::SelfCollision;
-use super::settings::{AdaptiveSubsteps, SolverMethod, SolverSettings};
-use super::state::{ClothState, inverse_mass};
+use super::settings::{SolverMethod, SolverSettings};
+use super::state::ClothState;
 use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
-use crate::collide::contact::{Contact, ContactScratch};
+use crate::collide::contact::ContactScratch;
 use crate::collide::edge_contacts::EdgeContacts;
 use crate::collide::thin::ThinFeatureContacts;
 use crate::collide::{FrameStep, SolverCollider};
-use crate::error::{ClothError, ColliderError};
+use crate::error::ClothError;
 
+mod adaptive;
+mod colliders;
 pub(crate) mod diagnostics;
 mod halves;
 pub(crate) mod parallel;
 mod passes;
+mod pins;
 mod step;
 mod timings;
+mod volume;
+mod wind;
 
 use halves::Halves;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
 use timings::Laps;
 pub use timings::StepTimings;
-
-/// How many nearest pinned particles each free particle is tethered to.
-const TETHERS_PER_PARTICLE: usize = 4;
 
 /// A pinned particle: inverse mass 0, moved along a straight line from `start` to `end` over
 /// the next step.
@@ -271,180 +276,6 @@ impl ClothSolver {
         &self.timings
     }
 
-    /// Samples `wind` at time `t` (seconds) at every particle for the coming steps (the air
-    /// of [`SolverSettings::air`] moves with it). Until it is called the air is still. Gusts
-    /// are taken as a linear field over the cloth (see `cloth/air.rs`).
-    pub fn set_wind(&mut self, wind: &WindField, t: f32) {
-        let x = &self.state.positions;
-        let base = Vec3A::from(wind.velocity);
-        let base = if base.is_finite() { base } else { Vec3A::ZERO };
-        let gusts = GustField::over(&wind.gusts, x, t);
-        if gusts.is_none() && wind.sources.is_empty() {
-            self.particle_wind.fill(base);
-            return;
-        }
-        for (sample, &p) in self.particle_wind.iter_mut().zip(x) {
-            let mut v = base;
-            if let Some(gusts) = &gusts {
-                v += gusts.at(p);
-            }
-            for source in &wind.sources {
-                v += Vec3A::from(source.velocity_at(p.into()));
-            }
-            *sample = if v.is_finite() { v } else { Vec3A::ZERO };
-        }
-    }
-
-    /// Grabs `particle`: from now on it is held like a pin (inverse mass 0) and moved to
-    /// [`ClothSolver::drag_to`]'s goal over each step, until [`ClothSolver::release`]. Grabbing
-    /// another particle releases the first. Returns `false` if the particle does not exist.
-    pub fn grab(&mut self, particle: u32) -> bool {
-        let Some(&p) = self.state.positions.get(particle as usize) else {
-            return false;
-        };
-        self.release();
-        self.drag = Some(Pin {
-            particle,
-            start: p,
-            end: p,
-        });
-        self.refresh_masses();
-        // The grabbed particle is held like a pin: tether the cloth to it too, so a hard yank
-        // pulls the whole cloth along instead of stretching the edges next to it.
-        self.rebuild_tethers();
-        true
-    }
-
-    /// Sets where the grabbed particle must be at the end of the next step (ignored if
-    /// nothing is grabbed or the goal is not finite). The goal is kept within the particle's
-    /// rest distance of every pin, so a drag cannot tear a pinned cloth apart.
-    pub fn drag_to(&mut self, goal: Vec3) {
-        let Some(drag) = self.drag else {
-            return;
-        };
-        if !goal.is_finite() {
-            return;
-        }
-        let rest = &self.model.rest_positions;
-        let mut goal = Vec3A::from(goal);
-        // Alternating projections onto the spheres around the pins.
-        for _ in 0..8 {
-            for pin in &self.pins {
-                let reach = rest[drag.particle as usize].distance(rest[pin.particle as usize]);
-                let d = goal - pin.end;
-                let len = d.length();
-                if len > reach && len > 0.0 {
-                    goal = pin.end + d * (reach / len);
-                }
-            }
-        }
-        if let Some(drag) = &mut self.drag {
-            drag.end = goal;
-        }
-    }
-
-    /// The grabbed particle, if any.
-    pub fn grabbed(&self) -> Option<u32> {
-        self.drag.map(|d| d.particle)
-    }
-
-    /// Lets go of the grabbed particle; it gets its mass back (unless it is pinned).
-    pub fn release(&mut self) {
-        if self.drag.take().is_some() {
-            self.refresh_masses();
-            self.rebuild_tethers();
-        }
-    }
-
-    /// Replaces the colliders the cloth meets in the next steps (see [`crate::collide`]).
-    /// A collider that is not valid ([`SolverCollider::validate`]: a bad dimension or
-    /// material, a non-finite pose or velocity) is left out, and the first such error is
-    /// returned; the valid ones are kept either way.
-    pub fn set_colliders(&mut self, colliders: &[SolverCollider]) -> Result<(), ColliderError> {
-        let count = self.colliders.len();
-        self.colliders.clear();
-        let mut first_error = None;
-        for collider in colliders {
-            match collider.validate() {
-                Ok(()) => self.colliders.push(collider.clone()),
-                Err(e) => {
-                    first_error.get_or_insert(e);
-                }
-            }
-        }
-        if self.colliders.len() != count || first_error.is_some() {
-            // The contacts name colliders by index.
-            self.contacts.forget();
-        }
-        first_error.map_or(Ok(()), Err)
-    }
-
-    /// Carries the cloth along with the frame it follows (a character) over the coming step,
-    /// so that it feels only `inertia` of the frame's world motion: `1` is physical (nothing
-    /// is carried), `0` simulates the cloth as if it lived in the frame. Call after
-    /// [`ClothSolver::set_colliders`] and the pin targets, before [`ClothSolver::step`].
-    ///
-    /// The carried part, `s = 1 - inertia` of the step's pose change (see [`FrameStep`]),
-    /// moves positions, previous positions and pins rigidly and turns velocities, so the
-    /// state's velocities are relative to the carried motion and nothing is created or lost.
-    /// The colliders are seen in the same way: their start poses are carried too and
-    /// `s` times the frame's velocity field (`v + omega x r`) is taken off theirs. A jump
-    /// ([`FrameStep::jumped`], a teleport) carries the cloth with all of it, whatever the
-    /// inertia; the colliders then start where they end already.
-    pub fn follow_frame(&mut self, frame: &FrameStep, inertia: f32) {
-        let s = if inertia.is_finite() {
-            1.0 - inertia.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let map = frame.carry(if frame.jumped { 1.0 } else { s });
-        self.carried = (s > 0.0 && !frame.jumped).then_some((*frame, s));
-        if !(map.rotation.is_finite() && map.to.is_finite() && map.pivot.is_finite()) {
-            return;
-        }
-        if !map.is_identity() {
-            let state = &mut self.state;
-            for p in state
-                .positions
-                .iter_mut()
-                .chain(state.previous_positions.iter_mut())
-            {
-                *p = map.point(*p);
-            }
-            for v in &mut state.velocities {
-                *v = map.vector(*v);
-            }
-            for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
-                pin.start = map.point(pin.start);
-            }
-            self.contacts.carry_anchors(|p| map.point(p));
-        }
-        for c in &mut self.colliders {
-            if !frame.jumped {
-                c.start = map.pose(&c.start);
-            }
-            if s > 0.0 {
-                c.linear_velocity -= frame.velocity_at(c.end.translation) * s;
-                c.angular_velocity -= frame.angular_velocity * s;
-            }
-        }
-    }
-
-    /// The colliders.
-    pub fn colliders(&self) -> &[SolverCollider] {
-        &self.colliders
-    }
-
-    /// Every particle's collider contact in the last substep.
-    pub(crate) fn contacts(&self) -> &[Contact] {
-        self.contacts.contacts()
-    }
-
-    /// How many particles touched a collider in the last substep.
-    pub fn contact_count(&self) -> usize {
-        self.contacts.count()
-    }
-
     /// The springs of the mass-spring and hybrid methods, built now if they are not yet
     /// (feature `internals`).
     #[cfg(feature = "internals")]
@@ -490,62 +321,6 @@ impl ClothSolver {
         &mut self.state
     }
 
-    /// The pins.
-    pub fn pins(&self) -> &[Pin] {
-        &self.pins
-    }
-
-    /// The long-range attachments currently built (feature `internals`).
-    #[cfg(feature = "internals")]
-    pub fn tethers(&self) -> &[Tether] {
-        &self.tethers
-    }
-
-    /// Pins `particles` where they are now (replacing any earlier pins) and rebuilds the
-    /// long-range attachments.
-    pub fn set_pins(&mut self, particles: &[u32]) -> Result<(), ClothError> {
-        let n = self.model.particle_count();
-        if let Some(&vertex) = particles.iter().find(|&&p| p as usize >= n) {
-            return Err(ClothError::VertexOutOfRange {
-                vertex,
-                vertex_count: n,
-            });
-        }
-        let mut sorted = particles.to_vec();
-        sorted.sort_unstable();
-        sorted.dedup();
-        self.pins = sorted
-            .iter()
-            .map(|&particle| {
-                let p = self.state.positions[particle as usize];
-                Pin {
-                    particle,
-                    start: p,
-                    end: p,
-                }
-            })
-            .collect();
-        self.refresh_masses();
-        self.rebuild_tethers();
-        Ok(())
-    }
-
-    /// Sets where pinned particle `particle` must be at the end of the next step; it moves
-    /// there along a straight line over the substeps. Returns `false` if it is not pinned or
-    /// the target is not finite.
-    pub fn set_pin_target(&mut self, particle: u32, target: Vec3) -> bool {
-        if !target.is_finite() {
-            return false;
-        }
-        match self.pins.binary_search_by_key(&particle, |p| p.particle) {
-            Ok(k) => {
-                self.pins[k].end = target.into();
-                true
-            }
-            Err(_) => false,
-        }
-    }
-
     /// Changes the areal density; masses and inverse masses follow.
     pub fn set_density(&mut self, density: f32) -> Result<(), ClothError> {
         self.model.set_density(density)?;
@@ -569,96 +344,6 @@ impl ClothSolver {
             pin.end = p;
         }
         self.refresh_masses();
-    }
-
-    /// Recomputes inverse masses from the model: `1 / mass`, or 0 for pinned and massless
-    /// particles.
-    fn refresh_masses(&mut self) {
-        for (i, w) in self.state.inverse_masses.iter_mut().enumerate() {
-            *w = inverse_mass(self.model.mass(i));
-        }
-        for pin in self.pins.iter().chain(self.drag.as_ref()) {
-            self.state.inverse_masses[pin.particle as usize] = 0.0;
-        }
-    }
-
-    /// Tethers every free particle to its nearest pinned particles along the cloth (at most
-    /// `TETHERS_PER_PARTICLE`), each as long as the distance along the cloth in its rest
-    /// shape (`cloth/rest_paths.rs`): the straight distance on a flat piece where the
-    /// straight line stays on the cloth, the shortest path over the edges elsewhere, so a
-    /// tether never holds the cloth tighter than its edges would.
-    fn rebuild_tethers(&mut self) {
-        self.tethers.clear();
-        self.tether_pins.clear();
-        self.tether_anchors.clear();
-        self.tether_batches = PairBatches::default();
-        self.halves = None;
-        if self.pins.is_empty() && self.drag.is_none() {
-            return;
-        }
-        let rest = &self.model.rest_positions;
-        let paths = self
-            .rest_paths
-            .get_or_insert_with(|| RestPaths::new(&self.model));
-        let anchors: Vec<u32> = self
-            .pins
-            .iter()
-            .chain(self.drag.as_ref())
-            .map(|pin| pin.particle)
-            .collect();
-        let mut along = Vec::new();
-        let mut lengths: Vec<Vec<f32>> = Vec::with_capacity(anchors.len());
-        for &anchor in &anchors {
-            paths.from(rest, anchor, &mut along);
-            lengths.push(along.clone());
-        }
-        // (length, the pin's place in `anchors`).
-        let mut nearest: Vec<(f32, u32)> = Vec::with_capacity(anchors.len());
-        let mut slots = Vec::new();
-        for (i, &w) in self.state.inverse_masses.iter().enumerate() {
-            if w == 0.0 {
-                continue;
-            }
-            nearest.clear();
-            nearest.extend(
-                lengths
-                    .iter()
-                    .enumerate()
-                    .map(|(slot, l)| (l[i], slot as u32))
-                    .filter(|(l, _)| l.is_finite()),
-            );
-            let k = TETHERS_PER_PARTICLE.min(nearest.len());
-            if k == 0 {
-                continue;
-            }
-            if nearest.len() > k {
-                nearest.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
-            }
-            for &(length, slot) in &nearest[..k] {
-                slots.push(slot);
-                self.tethers.push(Tether {
-                    particle: i as u32,
-                    anchor: anchors[slot as usize],
-                    length,
-                });
-            }
-        }
-        // Grouped by pin: consecutive tethers of different particles do not wait for each
-        // other.
-        let mut order: Vec<usize> = (0..self.tethers.len()).collect();
-        order.sort_by_key(|&k| slots[k]);
-        self.tethers = order.iter().map(|&k| self.tethers[k]).collect();
-        self.tether_batches = PairBatches::new(
-            self.tethers
-                .iter()
-                .zip(order.iter().map(|&k| slots[k]))
-                .map(|(t, slot)| ([t.particle, slot], t.length)),
-            self.state.positions.len(),
-            false,
-        );
-        self.tether_anchors = vec![Vec3A::ZERO; anchors.len()];
-        self.tether_pins = anchors;
-        self.tether_batches.set_weights(&self.state.inverse_masses);
     }
 
     /// Advances the cloth by `dt` seconds under the constant acceleration `acceleration`
@@ -851,78 +536,6 @@ impl ClothSolver {
             self.edge_batches.set_weights(&self.state.inverse_masses);
             self.edge_batch_lambdas = vec![Vec4::ZERO; self.edge_batches.len()];
             self.halves = None;
-        }
-    }
-
-    /// One fixed step under [`SolverSettings::adaptive`]: the step runs at the chosen count;
-    /// if it ends above the target strain it is undone (the state, and the contacts with
-    /// friction's anchors, which every substep moves with the colliders' surfaces) and run
-    /// again with more substeps (up to the maximum), so every step that can meet the target
-    /// does. The count then goes down as [`AdaptiveSubsteps::next`] says.
-    /// [`ClothSolver::last_substeps`] counts every substep run, undone ones included (the
-    /// step's cost).
-    fn step_adaptive(
-        &mut self,
-        settings: &SolverSettings,
-        budget: &AdaptiveSubsteps,
-        acceleration: Vec3,
-        dt: f32,
-        join: &dyn Join,
-    ) {
-        let (lo, hi) = (
-            budget.min_substeps.max(1),
-            budget.max_substeps.max(budget.min_substeps.max(1)),
-        );
-        let mut chosen = *settings;
-        chosen.substeps = match self.adaptive_substeps {
-            0 => settings.substeps,
-            n => n,
-        }
-        .clamp(lo, hi);
-        self.adaptive_backup.clone_from(&self.state);
-        self.adaptive_contacts_backup.clone_from(&self.contacts);
-        let mut run = 0;
-        loop {
-            self.step_substeps(&chosen, acceleration, dt, join, None);
-            run += chosen.substeps;
-            let strain = self.strain().max;
-            let next = budget.next(chosen.substeps, strain, &mut self.adaptive_calm);
-            if next > chosen.substeps && strain.is_finite() {
-                // Over the target: undo the step and run it again with more.
-                self.state.clone_from(&self.adaptive_backup);
-                self.contacts.clone_from(&self.adaptive_contacts_backup);
-                chosen.substeps = next;
-                continue;
-            }
-            self.adaptive_substeps = next;
-            break;
-        }
-        self.last_substeps = run;
-    }
-
-    /// Builds the volume constraint now (it is otherwise built by the first step with
-    /// [`SolverSettings::volume`]) and returns the rest volume, or
-    /// [`ClothError::OpenSurface`] if the cloth does not close.
-    pub fn enable_volume(&mut self) -> Result<f32, ClothError> {
-        let built = self
-            .volume
-            .get_or_insert_with(|| VolumeConstraint::new(&self.model));
-        match built {
-            Ok(c) => Ok(c.rest_volume()),
-            Err(e) => Err(e.clone()),
-        }
-    }
-
-    /// Why the volume constraint could not be built, once a step asked for it.
-    pub fn volume_error(&self) -> Option<&ClothError> {
-        self.volume.as_ref().and_then(|v| v.as_ref().err())
-    }
-
-    /// The enclosed volume now and at rest, m^3, once the volume constraint is built.
-    pub fn volume(&self) -> Option<(f32, f32)> {
-        match self.volume.as_ref() {
-            Some(Ok(c)) => Some((c.volume(&self.state.positions), c.rest_volume())),
-            _ => None,
         }
     }
 
