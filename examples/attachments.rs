@@ -21,10 +21,7 @@ const WIDTH: f32 = 1.2;
 fn main() {
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
-        .insert_resource(DefaultClothSettings(ClothSettings {
-            ground: Some(0.0),
-            ..default()
-        }))
+        .insert_resource(DefaultClothSettings(ClothSettings { ..default() }))
         .add_systems(Startup, setup)
         .add_systems(FixedUpdate, move_bar)
         .add_systems(Update, (keys, draw_path))
@@ -60,6 +57,7 @@ fn setup(
         Vec3::new(0.0, 1.2, 0.0),
         4.2,
     );
+    commands.spawn((ClothCollider::plane(), Transform::default()));
     let bar = commands
         .spawn((
             Mesh3d(meshes.add(Cylinder::new(0.02, WIDTH + 0.2))),

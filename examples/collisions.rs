@@ -58,6 +58,10 @@ fn setup(
         Vec3::new(0.2, 0.3, 0.0),
         2.6,
     );
+    // The box: its floor and walls as plane colliders facing in.
+    for wall in ClothCollider::inside_box(BOX.0, BOX.1) {
+        commands.spawn(wall);
+    }
     let material = MATERIAL;
     let grid = GridDesc::square(0.8, 24, Vec3::ZERO);
     commands.spawn((
@@ -72,8 +76,6 @@ fn setup(
                 auto_substeps: true,
                 ..default()
             },
-            ground: Some(0.0),
-            container: Some(BOX),
             ..default()
         },
         Transform::from_xyz(-0.9, 1.2, -0.4),

@@ -53,6 +53,7 @@ fn setup(
         Vec3::new(-0.6, POLE - 0.9, 1.2),
         4.2,
     );
+    commands.spawn((ClothCollider::plane(), Transform::default()));
     // The flag hangs in the pole's plane (XY), its left edge along the pole, pinned.
     let grid = GridDesc {
         size: SIZE,
@@ -72,7 +73,6 @@ fn setup(
                 air: Some(AirSettings::default()),
                 ..default()
             },
-            ground: Some(0.0),
             ..default()
         },
         Transform::from_xyz(0.0, POLE - 0.05, 0.0),

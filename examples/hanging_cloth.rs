@@ -23,10 +23,7 @@ const HEIGHT: f32 = 1.5;
 fn main() {
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
-        .insert_resource(DefaultClothSettings(ClothSettings {
-            ground: Some(0.0),
-            ..default()
-        }))
+        .insert_resource(DefaultClothSettings(ClothSettings { ..default() }))
         .add_systems(Startup, setup)
         .add_systems(Update, keys)
         .run();
@@ -45,6 +42,7 @@ fn setup(
         Vec3::new(0.5, 0.9, 0.3),
         3.2,
     );
+    commands.spawn((ClothCollider::plane(), Transform::default()));
     // The S1 sheet: x, z in [0, 1], pinned at (0, h, 0) and (1, h, 0).
     let grid = GridDesc::square(1.0, N, Vec3::ZERO);
     commands.spawn((

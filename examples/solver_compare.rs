@@ -86,6 +86,7 @@ fn setup(
         Vec3::new(SPACING + 0.5, 0.9, 0.3),
         5.2,
     );
+    commands.spawn((ClothCollider::plane(), Transform::default()));
     let grid = GridDesc::square(1.0, N, Vec3::ZERO);
     let mesh = meshes.add(grid_mesh(&grid));
     let colours = [
@@ -160,10 +161,7 @@ fn face_the_row(mut cameras: Query<&mut OrbitCamera>) {
 /// The settings of one column: the method, the shared substeps, stiffnesses scaled from the
 /// defaults, a ground plane.
 fn settings(method: SolverMethod, substeps: u32, scale: f32, auto_substeps: bool) -> ClothSettings {
-    let mut settings = ClothSettings {
-        ground: Some(0.0),
-        ..default()
-    };
+    let mut settings = ClothSettings { ..default() };
     settings.solver.method = method;
     settings.solver.substeps = substeps;
     settings.solver.auto_substeps = auto_substeps;

@@ -57,6 +57,7 @@ fn setup(
         Vec3::new(0.0, 0.6, 0.0),
         2.4,
     );
+    commands.spawn((ClothCollider::plane(), Transform::default()));
     // A sheet hung by its corners from four posts standing in from them, and a jet over it.
     let n = VERTICES;
     let grid = GridDesc::square(SIDE, n, Vec3::new(-SIDE / 2.0, HEIGHT, -SIDE / 2.0));
@@ -102,7 +103,6 @@ fn setup(
                 iterations: 4,
                 ..default()
             },
-            ground: Some(0.0),
             ..default()
         },
         Fluid {

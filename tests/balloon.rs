@@ -175,9 +175,10 @@ fn a_sphere_with_split_seams_simulates_as_one_piece() {
             volume: Some(VolumeSettings::default()),
             ..SolverSettings::default()
         },
-        ground: Some(0.0),
         ..default()
     };
+    app.world_mut()
+        .spawn((ClothCollider::plane(), Transform::default()));
     let cloth = app
         .world_mut()
         .spawn((

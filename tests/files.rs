@@ -35,8 +35,7 @@ fn app(assets: &std::path::Path) -> App {
 fn unusual() -> ClothSettings {
     let mut settings = ClothSettings {
         density: 0.37,
-        ground: Some(-0.25),
-        container: Some((Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 3.0, 2.0))),
+        wind: false,
         on_divergence: OnDivergence::Reset,
         inertia: 0.4,
         ..Default::default()

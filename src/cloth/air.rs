@@ -124,12 +124,7 @@ pub struct Gusts {
 
 impl Default for Gusts {
     fn default() -> Self {
-        Self {
-            strength: 0.0,
-            frequency: 0.5,
-            length: 4.0,
-            seed: 1,
-        }
+        WindField::STILL.gusts
     }
 }
 
@@ -343,6 +338,23 @@ pub struct WindField {
 }
 
 impl WindField {
+    /// No wind anywhere.
+    pub const STILL: Self = Self {
+        velocity: Vec3::ZERO,
+        gusts: Gusts {
+            strength: 0.0,
+            frequency: 0.5,
+            length: 4.0,
+            seed: 1,
+        },
+        sources: Vec::new(),
+    };
+
+    /// Whether the air is still everywhere: no wind, no gusts, no source.
+    pub fn is_still(&self) -> bool {
+        self.velocity == Vec3::ZERO && self.gusts.strength == 0.0 && self.sources.is_empty()
+    }
+
     #[cfg(test)]
     /// The wind velocity at `p` at time `t` (finite: a source or gust that is not gives
     /// nothing).

@@ -129,6 +129,38 @@ impl ClothCollider {
         Self::new(ColliderShape::Plane)
     }
 
+    /// The six walls of the box from `min` to `max` as plane colliders facing into it, each
+    /// with its transform: spawn them to keep cloth inside the box (its floor is a ground).
+    ///
+    /// ```
+    /// # use bevy::prelude::*;
+    /// # use bevy_drape::prelude::*;
+    /// fn spawn_box(mut commands: Commands) {
+    ///     let walls = ClothCollider::inside_box(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
+    ///     for wall in walls {
+    ///         commands.spawn(wall);
+    ///     }
+    /// }
+    /// # bevy::ecs::system::assert_is_system(spawn_box);
+    /// ```
+    pub fn inside_box(min: Vec3, max: Vec3) -> [(Self, Transform); 6] {
+        let wall = |at: Vec3, normal: Vec3| {
+            let rotation = Quat::from_rotation_arc(Vec3::Y, normal);
+            (
+                Self::plane(),
+                Transform::from_translation(at).with_rotation(rotation),
+            )
+        };
+        [
+            wall(min, Vec3::X),
+            wall(max, Vec3::NEG_X),
+            wall(min, Vec3::Y),
+            wall(max, Vec3::NEG_Y),
+            wall(min, Vec3::Z),
+            wall(max, Vec3::NEG_Z),
+        ]
+    }
+
     /// A triangle mesh.
     pub fn mesh(mesh: Handle<Mesh>) -> Self {
         Self::new(ColliderShape::TriangleMesh(mesh))

@@ -10,7 +10,7 @@ use crate::cloth::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use crate::cloth::sim::ClothSolver;
 use crate::cloth::sim::diagnostics::Divergence;
 use crate::collide::skin::DrawnColliders;
-use crate::collide::{ContactMaterial, FrameStep, FrameTracker, RigidPose, SolverCollider};
+use crate::collide::{FrameStep, FrameTracker, RigidPose, SolverCollider};
 use crate::error::ClothError;
 use crate::files::{FileValue, FromFile};
 use crate::schedule::IsCloth;
@@ -116,10 +116,6 @@ pub struct ClothSettings {
     pub density: f32,
     /// Solver parameters (substeps, iterations, compliances, damping, thickness, friction).
     pub solver: SolverSettings,
-    /// Height of a ground plane (`y >= ground`), metres, if any. Default: `None`.
-    pub ground: Option<f32>,
-    /// An axis-aligned box `(min, max)` the particles stay inside, if any. Default: `None`.
-    pub container: Option<(Vec3, Vec3)>,
     /// When the cloth counts as diverged, checked after every fixed step.
     pub divergence: DivergenceBounds,
     /// What happens to a diverged cloth. Default: [`OnDivergence::Freeze`].
@@ -129,6 +125,14 @@ pub struct ClothSettings {
     /// joints' motion, gravity and its colliders); in between scales the inertia of walking,
     /// turning and stopping. Default: `1.0`.
     pub inertia: f32,
+    /// Whether the cloth feels the [`Wind`](crate::cloth::wind_plugin::Wind) and every
+    /// [`WindSource`](crate::cloth::wind_plugin::WindSource). While any blows, a cloth whose
+    /// [`SolverSettings::air`] is `None` meets the air with the default [`AirSettings`]; with
+    /// no wind about it pays nothing for it. `false` keeps the cloth in still air (a garment
+    /// under another). Default: `true`.
+    ///
+    /// [`AirSettings`]: crate::cloth::AirSettings
+    pub wind: bool,
 }
 
 impl Default for ClothSettings {
@@ -136,8 +140,7 @@ impl Default for ClothSettings {
         Self {
             density: 0.1,
             solver: SolverSettings::default(),
-            ground: None,
-            container: None,
+            wind: true,
             divergence: DivergenceBounds::default(),
             on_divergence: OnDivergence::Freeze,
             inertia: 1.0,
@@ -168,22 +171,6 @@ pub struct ClothDiverged {
     pub divergence: Divergence,
     /// What was done about it.
     pub response: OnDivergence,
-}
-
-impl ClothSettings {
-    /// The ground and the container's walls as colliders, with the solver's friction.
-    pub(super) fn plane_colliders(&self, out: &mut Vec<SolverCollider>) {
-        let material = ContactMaterial {
-            friction: self.solver.friction,
-            restitution: 0.0,
-        };
-        if let Some(height) = self.ground {
-            out.push(SolverCollider::ground(height, material));
-        }
-        if let Some((min, max)) = self.container {
-            out.extend(SolverCollider::box_walls(min.into(), max.into(), material));
-        }
-    }
 }
 
 /// The [`ClothSettings`] of every cloth that has none of its own.
@@ -235,8 +222,6 @@ pub struct ClothSimulation {
     pub(super) warned_invalid_settings: bool,
     /// Whether a refused step was reported (until a step succeeds again).
     pub(super) warned_step_input: bool,
-    /// Whether a ground or container left out was reported (until all are valid again).
-    pub(super) warned_planes: bool,
     pub(super) warned_volume: bool,
     /// The settings the cloth diverged with, while it is frozen.
     pub(super) frozen_with: Option<ClothSettings>,

@@ -68,6 +68,12 @@ impl<C> Default for ClothCouplingPlugin<C> {
 
 impl<C: ClothCoupling> Plugin for ClothCouplingPlugin<C> {
     fn build(&self, app: &mut App) {
+        assert!(
+            app.is_plugin_added::<ClothPlugin>(),
+            "ClothCouplingPlugin<{}> steps the cloths of ClothPlugin: add ClothPlugin before it \
+             (DrapePlugins has both)",
+            std::any::type_name::<C>()
+        );
         let schedule = DrapeSchedule::of(app);
         app.init_resource::<ClothCouplingInstalled>()
             .add_systems(schedule, step_cloths::<C>.in_set(DrapeSystems::Step));

@@ -88,7 +88,6 @@ fn build_simulation(
             colliders: Vec::new(),
             warned_invalid_settings: false,
             warned_step_input: false,
-            warned_planes: false,
             warned_volume: false,
             frozen_with: None,
             follow: FrameTracker::default(),

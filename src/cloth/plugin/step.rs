@@ -9,8 +9,12 @@ use bevy::transform::helper::TransformHelper;
 use super::components::{
     Cloth, ClothDiverged, ClothSettings, ClothSimulation, DefaultClothSettings, OnDivergence,
 };
+use crate::cloth::air::{AirSettings, WindField};
 use crate::cloth::sim::{Join, OneThread, StepTimings, with_helper};
 use crate::collide::SolverCollider;
+
+/// The air of a cloth that does not feel the wind.
+static STILL_AIR: WindField = WindField::STILL;
 use crate::schedule::{
     ClothCoupling, DrapeSettings, DrapeTimings, StepColliders, StepWind, world_pose,
 };
@@ -206,19 +210,12 @@ fn step_cloth<C: ClothCoupling>(
             sim.model().density
         );
     }
-    // The world's colliders, then this cloth's ground and container.
+    // The world's colliders, each checked when gathered (and reported with its entity).
     simulation.colliders.clear();
     simulation.colliders.extend_from_slice(context.colliders);
-    settings.plane_colliders(&mut simulation.colliders);
-    // The world's colliders were checked when gathered (each reported with its entity);
-    // what is left out here is this cloth's own ground or container.
-    match sim.set_colliders(&simulation.colliders) {
-        Err(err) if !simulation.warned_planes => {
-            warn!("cloth {entity}: its ground or container is left out: {err}");
-            simulation.warned_planes = true;
-        }
-        Err(_) => {}
-        Ok(()) => simulation.warned_planes = false,
+    if let Err(err) = sim.set_colliders(&simulation.colliders) {
+        error!("cloth {entity}: the colliders are left out: {err}");
+        let _ = sim.set_colliders(&[]);
     }
 
     if let Ok(global) = context.transforms.compute_global_transform(entity) {
@@ -281,22 +278,26 @@ fn step_cloth<C: ClothCoupling>(
         }
     }
 
-    if settings.solver.air.is_some()
-        && let Some(wind) = context.wind
-    {
-        sim.set_wind(wind, context.elapsed);
+    // The air: the cloth's own settings, or the default ones while the wind blows on it.
+    let mut solver = settings.solver;
+    let wind = context.wind.filter(|w| settings.wind && !w.is_still());
+    if solver.air.is_none() && wind.is_some() {
+        solver.air = Some(AirSettings::default());
+    }
+    if solver.air.is_some() {
+        sim.set_wind(wind.unwrap_or(&STILL_AIR), context.elapsed);
     }
     // What is coupled to the cloth (water in it) steps inside the cloth's substeps.
     let stepped = match coupled {
         Some(coupled) => coupled.step_with_cloth(
             entity,
             sim,
-            &settings.solver,
+            &solver,
             &simulation.colliders,
             context.drape.gravity,
             dt,
         ),
-        None => sim.step_with(&settings.solver, context.drape.gravity, dt, join),
+        None => sim.step_with(&solver, context.drape.gravity, dt, join),
     };
     if let Err(err) = stepped {
         if !simulation.warned_step_input {
