@@ -11,6 +11,7 @@
 mod common;
 
 use bevy::prelude::*;
+use bevy_drape::cloth::plugin::DefaultClothSettings;
 use bevy_drape::prelude::*;
 use bevy_drape::skeleton::spline::KeySpline;
 use common::{ExamplePlugin, cloth_material, spawn_stage};

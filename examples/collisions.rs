@@ -11,6 +11,7 @@ mod common;
 
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
+use bevy_drape::cloth::SolverMethod;
 use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
 

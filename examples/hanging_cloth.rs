@@ -14,6 +14,8 @@
 mod common;
 
 use bevy::prelude::*;
+use bevy_drape::cloth::plugin::ClothSettingsFile;
+use bevy_drape::cloth::plugin::DefaultClothSettings;
 use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
 

@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use bevy::prelude::*;
 use bevy_drape::prelude::*;
+use bevy_drape::skeleton::plugin::SkeletonPose;
 use common::{ExamplePlugin, dress_humanoids, spawn_stage};
 
 /// The circle's centre in front of the right shoulder, metres.

@@ -22,8 +22,10 @@ mod common;
 use std::sync::Arc;
 
 use bevy::prelude::*;
+use bevy_drape::cloth::DivergenceBounds;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
+use bevy_drape::schedule::DrapeTimings;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, cloth_material, dress_humanoids, follow_with_camera, spawn_stage};
 use drape_scenes::poncho::{

@@ -14,6 +14,7 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use bevy_drape::prelude::*;
 use bevy_drape::skeleton::clip::Clip;
+use bevy_drape::skeleton::plugin::{ClipAsset, SkeletonBones};
 use common::{ExamplePlugin, dress_humanoids, spawn_stage};
 
 /// Radius of the circle the character walks on, metres.

@@ -16,6 +16,8 @@ mod common;
 
 use bevy::prelude::*;
 use bevy::text::FontSize;
+use bevy_drape::cloth::SolverMethod;
+use bevy_drape::cloth::plugin::ClothDiverged;
 use bevy_drape::prelude::*;
 use common::{ExamplePlugin, OrbitCamera, cloth_material, spawn_stage};
 

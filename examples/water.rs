@@ -13,6 +13,8 @@
 mod common;
 
 use bevy::prelude::*;
+use bevy_drape::fluid::plugin::FluidSimulation;
+use bevy_drape::fluid::{FluidJet, FluidSettings};
 use bevy_drape::prelude::*;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, OrbitCamera, cloth_material, spawn_stage};

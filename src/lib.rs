@@ -170,41 +170,28 @@ use fluid::plugin::FluidPlugin;
 use schedule::DrapeSchedulePlugin;
 use skeleton::plugin::SkeletonPlugin;
 
-/// Everything most users import.
+/// The names a game writes: the plugins, a cloth and its settings, colliders, characters,
+/// inverse kinematics, wind and water. Everything else by its module path: the solvers and
+/// their settings in [`cloth`], [`collide`], [`skeleton`] and [`fluid`]; the sub-plugins in
+/// each module's `plugin`; errors in [`error`]; settings files in [`files`].
 pub mod prelude {
     pub use crate::DrapePlugins;
     pub use crate::cloth::mesh::grid_mesh;
-    pub use crate::cloth::plugin::{
-        Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothPlugin, ClothSettings,
-        ClothSettingsFile, ClothSimulation, DefaultClothSettings, OnDivergence, VertexAttachment,
-    };
+    pub use crate::cloth::plugin::{Cloth, ClothSettings, ClothSimulation, VertexAttachment};
     pub use crate::cloth::render_mesh::ClothSimulationMesh;
-    pub use crate::cloth::wind_plugin::{Wind, WindPlugin, WindSource};
-    pub use crate::cloth::{
-        AirSettings, ClothModel, ClothSolver, DampingMode, Divergence, DivergenceBounds, GridDesc,
-        Gusts, SolverMethod, SolverSettings, SpringConstants, SpringSettings, VolumeSettings,
-    };
-    pub use crate::cloth::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
+    pub use crate::cloth::wind_plugin::{Wind, WindSource};
+    pub use crate::cloth::{AirSettings, GridDesc, Gusts, SolverSettings};
     pub use crate::collide::ContactMaterial;
-    pub use crate::collide::plugin::{
-        AnimatedVelocity, ClothCollider, ColliderPlugin, ColliderShape, ColliderState,
-        KinematicVelocity,
-    };
-    pub use crate::error::{ClothError, ClothWarning, ColliderError, MeshError};
-    pub use crate::files::{FileAsset, FromFile};
-    pub use crate::fluid::plugin::{Fluid, FluidPlugin, FluidSimulation, FluidSource};
-    pub use crate::fluid::{FluidJet, FluidSettings, FluidSolver};
-    pub use crate::schedule::{DrapeSettings, DrapeSystems, DrapeTimings, StepColliders};
-    pub use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
+    pub use crate::collide::plugin::{ClothCollider, ColliderShape, KinematicVelocity};
+    pub use crate::fluid::plugin::{Fluid, FluidSource};
+    pub use crate::schedule::{DrapeSettings, DrapeSystems};
     #[cfg(feature = "animation")]
     pub use crate::skeleton::fixed_step_animation::FixedStepAnimation;
-    pub use crate::skeleton::humanoid::{BoneProxy, humanoid, humanoid_proxies};
-    pub use crate::skeleton::ik::{IkChain, IkError, IkResult, IkSettings};
+    pub use crate::skeleton::humanoid::humanoid;
+    pub use crate::skeleton::ik::IkSettings;
     pub use crate::skeleton::plugin::{
-        BoneColliders, BoneCollidersFile, BoneEntity, BoneProxyOf, ClipAsset, ClipPlayer, IkGoal,
-        IkTarget, InverseKinematics, Skeleton, SkeletonBones, SkeletonPlugin, SkeletonPose,
+        BoneColliders, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
     };
-    pub use crate::skeleton::rig::{BoneDesc, Rig, RigError};
 }
 
 /// All of `bevy_drape`'s plugins, simulating in [`FixedPostUpdate`] by default.

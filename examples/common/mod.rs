@@ -18,9 +18,9 @@ use bevy::app::AppExit;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use bevy_drape::prelude::{
-    ClothDebugColors, ClothPaint, ClothSimulation, DebugColorMode, PaintTarget,
-};
+use bevy_drape::cloth::plugin::ClothDebugColors;
+use bevy_drape::cloth::{ClothPaint, DebugColorMode, PaintTarget};
+use bevy_drape::prelude::ClothSimulation;
 
 /// Adds the orbit camera controls and the screenshot-and-exit switch.
 pub(crate) struct ExamplePlugin;
@@ -224,8 +224,8 @@ pub(crate) fn cloth_material(
 pub(crate) fn dress_humanoids(
     mut commands: Commands,
     skeletons: Query<
-        (Entity, &bevy_drape::prelude::SkeletonBones),
-        Added<bevy_drape::prelude::SkeletonBones>,
+        (Entity, &bevy_drape::skeleton::plugin::SkeletonBones),
+        Added<bevy_drape::skeleton::plugin::SkeletonBones>,
     >,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
@@ -249,18 +249,19 @@ pub(crate) fn dress_humanoids(
                 || bone.starts_with("shin")
                 || bone.starts_with("foot")
         };
-        let mut parts: Vec<(String, Mesh, Transform)> = bevy_drape::prelude::humanoid_proxies()
-            .into_iter()
-            .map(|p| {
-                let mesh: Mesh = if p.half_length > 0.0 {
-                    Capsule3d::new(p.radius, 2.0 * p.half_length).mesh().into()
-                } else {
-                    Sphere::new(p.radius).mesh().into()
-                };
-                let at = Transform::from_translation(p.centre).with_rotation(p.rotation());
-                (p.bone, mesh, at)
-            })
-            .collect();
+        let mut parts: Vec<(String, Mesh, Transform)> =
+            bevy_drape::skeleton::humanoid::humanoid_proxies()
+                .into_iter()
+                .map(|p| {
+                    let mesh: Mesh = if p.half_length > 0.0 {
+                        Capsule3d::new(p.radius, 2.0 * p.half_length).mesh().into()
+                    } else {
+                        Sphere::new(p.radius).mesh().into()
+                    };
+                    let at = Transform::from_translation(p.centre).with_rotation(p.rotation());
+                    (p.bone, mesh, at)
+                })
+                .collect();
         for side in ["l", "r"] {
             parts.push((
                 format!("foot_{side}"),

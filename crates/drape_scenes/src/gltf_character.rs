@@ -17,8 +17,9 @@ use bevy::world_serialization::WorldAssetRoot;
 use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
 use bevy_drape::cloth::render_mesh::ClothSimulationMesh;
 use bevy_drape::collide::plugin::ClothCollider;
-use bevy_drape::prelude::{Clip, ClipDesc, FixedStepAnimation, humanoid};
+use bevy_drape::prelude::{FixedStepAnimation, humanoid};
 use bevy_drape::schedule::DrapeSystems;
+use bevy_drape::skeleton::clip::{Clip, ClipDesc};
 use bevy_drape::skeleton::plugin::{BoneColliders, BoneProxyOf};
 
 use crate::poncho::{CharacterController, CharacterMotion, Poncho};

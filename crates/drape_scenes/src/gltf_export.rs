@@ -7,7 +7,7 @@
 //!   rest translation (its offset) and, in the clips, its rotation (the hinge's) and for the
 //!   root its translation too. Every bone is a joint of one skin.
 //! - The body ([`BodyPart`]s): one capsule per
-//!   [`BoneProxy`](bevy_drape::prelude::BoneProxy) (the shapes the cloth collides with) and a box per
+//!   [`BoneProxy`](bevy_drape::skeleton::humanoid::BoneProxy) (the shapes the cloth collides with) and a box per
 //!   foot, each vertex bound to its bone with weight 1, in the rest pose; the inverse bind
 //!   matrices are the bones' rest transforms inverted. In the rest pose every hinge is at 0
 //!   and the root is where the first clip starts.
@@ -18,7 +18,10 @@
 use bevy::math::{Mat4, Quat, Vec3};
 use bevy::mesh::{Indices, Mesh, MeshBuilder, VertexAttributeValues};
 use bevy::prelude::{Capsule3d, Cuboid, Meshable, Transform};
-use bevy_drape::prelude::{Clip, ClipDesc, Rig, humanoid, humanoid_proxies};
+use bevy_drape::prelude::humanoid;
+use bevy_drape::skeleton::clip::{Clip, ClipDesc};
+use bevy_drape::skeleton::humanoid::humanoid_proxies;
+use bevy_drape::skeleton::rig::Rig;
 use bevy_drape::skeleton::rig::{BoneState, Pose, PoseRate};
 use serde_json::{Value, json};
 
