@@ -154,6 +154,10 @@ pub mod files;
 pub mod fluid;
 pub mod interact;
 pub mod mesh;
+// The crate's tests' and harness's random generator, not part of the API.
+#[cfg(any(test, feature = "internals"))]
+#[doc(hidden)]
+pub mod rng;
 pub mod schedule;
 pub mod skeleton;
 pub(crate) mod weld;

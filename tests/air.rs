@@ -2,18 +2,15 @@
 //! velocity, an edge-on fall, a cloth moving with the air, a flag in steady and gusty wind,
 //! and the wind resource and sources in an App.
 
-use std::time::Duration;
+mod common;
 
-use bevy::asset::AssetPlugin;
 use bevy::math::Vec3A;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
 use bevy_drape::cloth::{
     AirSettings, ClothModel, ClothSolver, GridDesc, Gusts, SolverMethod, SolverSettings, WindField,
 };
 use bevy_drape::prelude::*;
+use common::{Rng, add_grid, app};
 use drape_scenes::scenes::{FRAME_RATE, Flag, GRAVITY};
 
 const DT: f32 = 1.0 / FRAME_RATE;
@@ -85,10 +82,9 @@ fn a_flat_sheet_falls_at_the_terminal_velocity_of_the_drag_law() {
 #[test]
 fn edge_on_a_sheet_falls_as_without_air() {
     // Vertical sheets at random headings: the flow runs along them.
-    let mut seed = 11u32;
+    let mut rng = Rng(11);
     for _ in 0..5 {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        let heading = (seed >> 8) as f32 / (1u32 << 24) as f32 * std::f32::consts::TAU;
+        let heading = rng.range(0.0, std::f32::consts::TAU);
         let orientation =
             Quat::from_rotation_y(heading) * Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);
         let mut with_air = sheet(orientation, 0.1);
@@ -168,11 +164,8 @@ fn azimuth_error_degrees(direction: Vec3, wind: Vec3) -> f32 {
 fn a_flag_in_steady_wind_streams_downwind() {
     // Winds from random headings at 6 to 14 m/s; after 4 s the flag's mean direction over
     // the last second points downwind in the horizontal to within a few degrees.
-    let mut seed = 5u32;
-    let mut next = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32
-    };
+    let mut rng = Rng(5);
+    let mut next = || rng.uniform();
     for _ in 0..4 {
         let heading = next() * std::f32::consts::TAU;
         let speed = 6.0 + 8.0 * next();
@@ -232,21 +225,6 @@ fn a_flag_in_a_30_m_s_gale_with_gusts_stays_finite_for_10000_steps() {
     assert!(azimuth_error_degrees(flag.direction(&sim), flag.wind) < 30.0);
 }
 
-fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        DrapePlugins::default(),
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 64.0,
-    )));
-    app
-}
-
 /// The flag's centroid after 2 s in an App with `setup` run first.
 fn flag_in_app(setup: impl FnOnce(&mut App)) -> Vec3 {
     let mut app = app();
@@ -257,10 +235,7 @@ fn flag_in_app(setup: impl FnOnce(&mut App)) -> Vec3 {
         gusts: Gusts::default(),
     };
     let grid = flag.grid();
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(&mut app, &grid);
     let entity = app
         .world_mut()
         .spawn((

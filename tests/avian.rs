@@ -3,34 +3,22 @@
 //! in a headless App running Avian's physics and the crate's plugins.
 #![cfg(feature = "avian")]
 
-use std::time::Duration;
+mod common;
 
 use avian3d::prelude::*;
-use bevy::asset::AssetPlugin;
 use bevy::math::Vec3A;
-use bevy::mesh::{Mesh, MeshPlugin};
+use bevy::mesh::Mesh;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
 use bevy_drape::collide::avian::{FromAvian, NoClothCollision};
+use bevy_drape::collide::plugin::AnimatedVelocity;
 use bevy_drape::collide::{SolverShape, TriMesh};
 use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
+use common::{Headless, Rng, add_grid, particles};
 
 /// A headless App with Avian and the crate, one fixed step of 1/64 s per update.
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        PhysicsPlugins::default(),
-        DrapePlugins::default(),
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 64.0,
-    )));
+    let mut app = Headless::new().build_with(PhysicsPlugins::default(), ());
     // Avian sets some of its resources up when the plugins finish (`App::run` does this).
     app.finish();
     app.cleanup();
@@ -66,14 +54,8 @@ fn avian_colliders_become_cloth_colliders_of_the_same_shape_until_they_go_or_opt
         .spawn((RigidBody::Static, Collider::cylinder(0.3, 0.8)))
         .id();
     // A hull of points nobody placed by hand.
-    let mut seed = 17u32;
-    let mut random = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
-    };
-    let points: Vec<Vec3> = (0..40)
-        .map(|_| Vec3::new(random(), random(), random()))
-        .collect();
+    let mut rng = Rng(17);
+    let points: Vec<Vec3> = (0..40).map(|_| rng.vec3(-0.5, 0.5)).collect();
     let hull = world
         .spawn((
             RigidBody::Static,
@@ -163,10 +145,7 @@ fn avian_colliders_become_cloth_colliders_of_the_same_shape_until_they_go_or_opt
 /// A 1 m cloth of 16 x 16 particles, flat, its corner `(0, 0)` at `origin`.
 fn spawn_cloth(app: &mut App, origin: Vec3) -> Entity {
     let grid = GridDesc::square(1.0, 16, Vec3::ZERO);
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(app, &grid);
     app.world_mut()
         .spawn((
             Mesh3d(mesh),
@@ -174,18 +153,6 @@ fn spawn_cloth(app: &mut App, origin: Vec3) -> Entity {
             Transform::from_translation(origin),
         ))
         .id()
-}
-
-fn particles(app: &App, cloth: Entity) -> Vec<Vec3> {
-    app.world()
-        .get::<ClothSimulation>(cloth)
-        .expect("the cloth was built")
-        .solver()
-        .state()
-        .positions
-        .iter()
-        .map(|&p| p.into())
-        .collect()
 }
 
 #[test]

@@ -1,17 +1,20 @@
 //! Closed cloth (balloons) and mesh files: the volume constraint, welding of split vertices,
 //! and the refusal of bad OBJ content.
 
+mod common;
+
 use std::time::Duration;
 
-use bevy::asset::AssetPlugin;
 use bevy::math::Vec3A;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
+use bevy_drape::cloth::plugin::ClothBuildError;
+use bevy_drape::cloth::{ClothModel, ClothSolver};
 use bevy_drape::cloth::{VolumeSettings, weld};
 use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape};
+use bevy_drape::error::ClothError;
 use bevy_drape::mesh::mesh_triangles;
 use bevy_drape::prelude::*;
+use common::Headless;
 use drape_scenes::scenes::lowest_height;
 
 const DT: f32 = 1.0 / 60.0;
@@ -146,22 +149,9 @@ fn an_open_cloth_asked_for_a_volume_gets_a_clear_error_and_still_steps() {
 }
 
 fn app(asset_root: &str) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin {
-            file_path: asset_root.into(),
-            ..default()
-        },
-        MeshPlugin,
-        DrapePlugins::default(),
-        bevy_drape::bevy_obj::ObjPlugin,
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 64.0,
-    )));
-    app
+    Headless::new()
+        .asset_root(asset_root)
+        .build_with((), bevy_drape::bevy_obj::ObjPlugin)
 }
 
 #[test]

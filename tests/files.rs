@@ -3,32 +3,24 @@
 //! file, again when the file changes, keeping them when a file does not parse, and a
 //! character's proxies spawned again when its colliders file changes.
 
+mod common;
+
 use std::time::Duration;
 
-use bevy::asset::{AssetPlugin, AssetServer};
-use bevy::mesh::{Mesh, MeshPlugin};
+use bevy::asset::AssetServer;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
+use bevy_drape::cloth::SolverMethod;
+use bevy_drape::cloth::plugin::{ClothSettingsFile, OnDivergence};
+use bevy_drape::files::FileAsset;
 use bevy_drape::files::{from_ron, to_ron};
 use bevy_drape::prelude::*;
+use bevy_drape::skeleton::plugin::{BoneCollidersFile, BoneProxyOf};
+use common::{Headless, add_grid};
 
 fn app(assets: &std::path::Path) -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin {
-            file_path: assets.to_string_lossy().into_owned(),
-            ..Default::default()
-        },
-        MeshPlugin,
-        DrapePlugins::default(),
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 64.0,
-    )));
-    app
+    Headless::new()
+        .asset_root(assets.to_string_lossy().into_owned())
+        .build()
 }
 
 /// Settings far from the defaults in every part.
@@ -98,10 +90,7 @@ fn a_cloth_takes_its_settings_from_a_file_again_when_it_changes_and_keeps_them_w
     std::fs::write(dir.join("broken.cloth.ron"), "(density: oops").unwrap();
     let mut app = app(&dir);
     let grid = GridDesc::square(1.0, 8, Vec3::ZERO);
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(&mut app, &grid);
     let file = app
         .world()
         .resource::<AssetServer>()

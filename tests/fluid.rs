@@ -1,24 +1,15 @@
 //! Position Based Fluids against measurements: columns of fluid at rest in boxes, and the
 //! dam break of Martin and Moyce (1952).
 
+mod common;
+
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::collide::{ContactMaterial, SolverCollider};
 use bevy_drape::fluid::{FluidSettings, FluidSolver};
+use common::Rng;
 
 const DT: f32 = 1.0 / 60.0;
 const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
-
-/// A small deterministic generator (xorshift) in [0, 1).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
 
 /// The six walls of a box, without friction.
 fn walls(min: Vec3, max: Vec3) -> [SolverCollider; 6] {
@@ -40,14 +31,14 @@ fn a_column_of_fluid_settles_at_its_rest_density() {
     let mut rng = Rng(0x853c_49e6_748f_ea9b);
     for case in 0..3 {
         let settings = FluidSettings {
-            particle_radius: 0.008 + 0.004 * rng.next(),
+            particle_radius: 0.008 + 0.004 * rng.uniform(),
             ..FluidSettings::default()
         };
         let s = settings.spacing();
         let size = Vec3::new(
-            s * (6.0 + 8.0 * rng.next()).floor(),
-            s * (15.0 + 25.0 * rng.next()).floor(),
-            s * (6.0 + 8.0 * rng.next()).floor(),
+            s * (6.0 + 8.0 * rng.uniform()).floor(),
+            s * (15.0 + 25.0 * rng.uniform()).floor(),
+            s * (6.0 + 8.0 * rng.uniform()).floor(),
         );
         let mut fluid = FluidSolver::new(settings).unwrap();
         let count = fluid.add_box(Vec3::ZERO, size).unwrap();

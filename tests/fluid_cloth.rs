@@ -1,27 +1,18 @@
 //! Fluid and cloth stepped together: momentum kept in free fall, a sheet held at its corners
 //! carries the water's weight, a closed cloth bag holds its water.
 
+mod common;
+
 use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 use bevy::prelude::{Mesh, Meshable, Sphere};
 use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverSettings, weld};
 use bevy_drape::fluid::{FluidSettings, FluidSolver};
 use bevy_drape::mesh::mesh_triangles;
+use common::Rng;
 use drape_scenes::water::particles_below_sheet;
 
 const DT: f32 = 1.0 / 60.0;
 const GRAVITY: Vec3 = Vec3::new(0.0, -9.81, 0.0);
-
-/// A small deterministic generator (xorshift) in [0, 1).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
 
 /// The cloth's budget under water: 16 x 4. Water is 30 to 40 times heavier than the cloth
 /// that holds it, and the contacts and the cloth's edges meet over the iterations: at the
@@ -71,11 +62,15 @@ fn cloth_and_fluid_falling_together_keep_their_momentum() {
             damping: 0.0,
             ..SolverSettings::default()
         };
-        let mut cloth = sheet(0.4, 9 + case, Vec3::ZERO, 0.2 + rng.next());
+        let mut cloth = sheet(0.4, 9 + case, Vec3::ZERO, 0.2 + rng.uniform());
         let mut fluid = FluidSolver::new(FluidSettings::default()).unwrap();
-        let lo = Vec3::new(-0.1, 0.03 + 0.05 * rng.next(), -0.1);
+        let lo = Vec3::new(-0.1, 0.03 + 0.05 * rng.uniform(), -0.1);
         fluid.add_box(lo, lo + Vec3::new(0.16, 0.1, 0.16)).unwrap();
-        let thrown = Vec3::new(rng.next() - 0.5, -1.0 - 2.0 * rng.next(), rng.next() - 0.5);
+        let thrown = Vec3::new(
+            rng.uniform() - 0.5,
+            -1.0 - 2.0 * rng.uniform(),
+            rng.uniform() - 0.5,
+        );
         let x: Vec<Vec3> = fluid.positions().iter().map(|p| Vec3::from(*p)).collect();
         fluid.clear();
         fluid.add_particles(&x, thrown).unwrap();

@@ -1,9 +1,12 @@
 //! FABRIK on hinge chains: reachable targets are reached, bones turn about their hinges only
 //! and within their limits, unreachable targets are approached as well as the hinges allow.
 
+mod common;
+
 use bevy::math::{Quat, Vec3};
 use bevy_drape::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};
 use bevy_drape::skeleton::rig::{BoneDesc, Pose, Rig};
+use common::Rng;
 
 fn bone(
     name: &str,
@@ -53,40 +56,28 @@ fn arm() -> (Rig, IkChain) {
     (rig, chain)
 }
 
-/// A repeatable uniform number in [0, 1).
-struct Random(u64);
-
-impl Random {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn pose(&mut self, rig: &Rig) -> Pose {
-        let mut pose = rig.rest_pose();
-        for (b, bone) in rig.bones().iter().enumerate() {
-            if let Some((lo, hi)) = bone.limits {
-                pose.angles[b] = lo + (hi - lo) * self.next();
-            }
+/// The rest pose of `rig` with every limited angle uniform within its limits.
+fn random_pose(random: &mut Rng, rig: &Rig) -> Pose {
+    let mut pose = rig.rest_pose();
+    for (b, bone) in rig.bones().iter().enumerate() {
+        if let Some((lo, hi)) = bone.limits {
+            pose.angles[b] = random.range(lo, hi);
         }
-        pose
     }
+    pose
 }
 
 #[test]
 fn a_three_hinge_chain_reaches_random_reachable_targets_within_a_millimetre() {
     let (rig, chain) = arm();
-    let mut random = Random(7);
+    let mut random = Rng(7);
     let mut scratch = IkScratch::default();
     let settings = IkSettings::default();
     let mut histogram = [0u32; 6]; // iterations: 1-5, 6-10, 11-20, 21-30, 31-50, failed
     let mut reached = 0;
     let trials = 1000;
     for _ in 0..trials {
-        let target = effector_position(&rig, &chain, &random.pose(&rig));
+        let target = effector_position(&rig, &chain, &random_pose(&mut random, &rig));
         let mut pose = rig.rest_pose();
         let result = solve(&rig, &chain, &mut pose, target, &settings, &mut scratch);
         // The returned pose really puts the effector there.
@@ -121,17 +112,17 @@ fn a_three_hinge_chain_reaches_random_reachable_targets_within_a_millimetre() {
 #[test]
 fn solved_bones_turn_about_their_hinges_only_and_within_their_limits() {
     let (rig, chain) = arm();
-    let mut random = Random(11);
+    let mut random = Rng(11);
     let mut scratch = IkScratch::default();
     let mut states = Vec::new();
     for _ in 0..200 {
         // Reachable and unreachable targets alike.
         let target = Vec3::new(
-            random.next() - 0.5,
-            0.5 + random.next(),
-            random.next() - 0.5,
+            random.uniform() - 0.5,
+            0.5 + random.uniform(),
+            random.uniform() - 0.5,
         ) * 1.6;
-        let mut pose = random.pose(&rig);
+        let mut pose = random_pose(&mut random, &rig);
         solve(
             &rig,
             &chain,
@@ -168,7 +159,7 @@ fn solved_bones_turn_about_their_hinges_only_and_within_their_limits() {
 #[test]
 fn an_unreachable_target_is_approached_as_well_as_the_best_of_many_random_poses() {
     let (rig, chain) = arm();
-    let mut random = Random(3);
+    let mut random = Rng(3);
     let mut scratch = IkScratch::default();
     for target in [
         Vec3::new(0.0, 1.0, 2.0),
@@ -188,7 +179,9 @@ fn an_unreachable_target_is_approached_as_well_as_the_best_of_many_random_poses(
         );
         assert!(pose.angles.iter().all(|a| a.is_finite()) && result.error.is_finite());
         let best_random = (0..10_000)
-            .map(|_| effector_position(&rig, &chain, &random.pose(&rig)).distance(target))
+            .map(|_| {
+                effector_position(&rig, &chain, &random_pose(&mut random, &rig)).distance(target)
+            })
             .fold(f32::MAX, f32::min);
         println!(
             "target {target}: IK {:.4} m in {} iterations ({} restarts), best of 10,000 random poses {best_random:.4} m",
@@ -202,15 +195,10 @@ fn an_unreachable_target_is_approached_as_well_as_the_best_of_many_random_poses(
 /// offset from its parent (0 to 0.3 m; a third of them at the joint before, two hinges at
 /// one point as in a shoulder), limits tight (0.3 to 1 rad wide) or loose (up to 5.5 rad) or
 /// none, and an effector 0.05 to 0.3 m along a random direction of the last bone.
-fn random_chain(random: &mut Random) -> (Rig, IkChain) {
-    let hinges = 3 + (random.next() * 5.0) as usize;
+fn random_chain(random: &mut Rng) -> (Rig, IkChain) {
+    let hinges = 3 + (random.uniform() * 5.0) as usize;
     let mut descs = vec![bone("root", None, [0.0; 3], [1.0, 0.0, 0.0], None)];
-    let unit = |random: &mut Random| loop {
-        let v = Vec3::new(random.next(), random.next(), random.next()) * 2.0 - Vec3::ONE;
-        if v.length_squared() > 0.05 && v.length_squared() <= 1.0 {
-            return v.normalize();
-        }
-    };
+    let unit = |random: &mut Rng| random.unit_vector();
     for k in 0..hinges {
         let name = format!("h{k}");
         let parent = if k == 0 {
@@ -218,19 +206,19 @@ fn random_chain(random: &mut Random) -> (Rig, IkChain) {
         } else {
             format!("h{}", k - 1)
         };
-        let offset = if k > 0 && random.next() < 0.33 {
+        let offset = if k > 0 && random.uniform() < 0.33 {
             Vec3::ZERO
         } else {
-            unit(random) * (0.05 + 0.25 * random.next())
+            unit(random) * (0.05 + 0.25 * random.uniform())
         };
-        let kind = random.next();
+        let kind = random.uniform();
         let limits = if kind < 0.4 {
-            let width = 0.3 + 0.7 * random.next();
-            let centre = (random.next() - 0.5) * 2.0;
+            let width = 0.3 + 0.7 * random.uniform();
+            let centre = (random.uniform() - 0.5) * 2.0;
             Some((centre - width / 2.0, centre + width / 2.0))
         } else if kind < 0.9 {
-            let width = 1.0 + 4.5 * random.next();
-            let lo = -width * random.next();
+            let width = 1.0 + 4.5 * random.uniform();
+            let lo = -width * random.uniform();
             Some((lo, lo + width))
         } else {
             None
@@ -244,7 +232,7 @@ fn random_chain(random: &mut Random) -> (Rig, IkChain) {
         ));
     }
     let rig = Rig::new(&descs).unwrap();
-    let effector = unit(random) * (0.05 + 0.25 * random.next());
+    let effector = unit(random) * (0.05 + 0.25 * random.uniform());
     let chain = IkChain::new(&rig, &format!("h{}", hinges - 1), hinges, effector).unwrap();
     (rig, chain)
 }
@@ -253,7 +241,7 @@ fn random_chain(random: &mut Random) -> (Rig, IkChain) {
 fn random_chains_reach_random_reachable_targets_from_the_rest_pose() {
     // 40 random chains x 250 targets: angles drawn within the limits, the target their
     // forward kinematics, every solve from the rest pose with the default settings.
-    let mut random = Random(0x5EED);
+    let mut random = Rng(0x5EED);
     let mut scratch = IkScratch::default();
     let mut solving = std::time::Duration::ZERO;
     let mut iterations_used = 0u64;
@@ -262,7 +250,7 @@ fn random_chains_reach_random_reachable_targets_from_the_rest_pose() {
     for _ in 0..40 {
         let (rig, chain) = random_chain(&mut random);
         for _ in 0..250 {
-            let goal = effector_position(&rig, &chain, &random.pose(&rig));
+            let goal = effector_position(&rig, &chain, &random_pose(&mut random, &rig));
             let mut pose = rig.rest_pose();
             let settings = IkSettings::default();
             let started = std::time::Instant::now();

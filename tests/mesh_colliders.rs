@@ -5,12 +5,15 @@
 //! the brute-force closest triangle), and whether any ear's edge passes through a cloth
 //! triangle or any cloth edge through an ear.
 
+mod common;
+
 use std::sync::Arc;
 
 use bevy::math::Vec3;
 use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverSettings};
 use bevy_drape::collide::{RigidPose, SolverCollider, SolverShape, TriMesh};
-use drape_scenes::scan::{ROCK, Rng, SCAN, Scan, scan};
+use common::Rng;
+use drape_scenes::scan::{ROCK, SCAN, Scan, scan};
 use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY};
 
 const DT: f32 = 1.0 / FRAME_RATE;

@@ -3,13 +3,15 @@
 //! step does, keeps momentum under rigid damping, and leaves the methods and cloths it does
 //! not split exactly as one thread steps them.
 
+mod common;
+
 use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 use bevy::tasks::TaskPoolBuilder;
 use bevy_drape::cloth::{
     AirSettings, ClothModel, ClothSolver, DampingMode, GridDesc, Join, RigidMotion, SolverMethod,
     SolverSettings, WindField, with_helper,
 };
-use drape_scenes::scan::Rng;
+use common::Rng;
 use drape_scenes::scenes::{GRAVITY, HangingCloth};
 
 const DT: f32 = 1.0 / 60.0;
@@ -205,7 +207,7 @@ fn a_split_step_keeps_the_momentum_of_a_free_spinning_cloth() {
             reference.step(&settings, Vec3::ZERO, DT).unwrap();
         }
         // Neither step keeps momentum to round-off (the O(h) loss of projecting rotating
-        // particles, cloth_core.rs); the split one keeps it as well as one thread does.
+        // particles, cloth_dynamics.rs); the split one keeps it as well as one thread does.
         let change = |m: &RigidMotion| {
             (
                 (m.linear_velocity - before.linear_velocity).length(),

@@ -1,6 +1,6 @@
 //! Every subset of the drape sub-plugins, added alone to a headless App, builds, runs its
-//! systems in the ordered drape sets (Prepare -> Animate -> InverseKinematics -> Colliders ->
-//! Step) of one schedule, and steps what it has; a plugin added without the one it needs fails
+//! systems in the ordered drape sets (`Prepare` -> `Animate` -> `InverseKinematics` -> `Colliders` ->
+//! `Step`) of one schedule, and steps what it has; a plugin added without the one it needs fails
 //! at build with a message naming it.
 
 use std::sync::Arc;
@@ -15,6 +15,7 @@ use bevy_drape::cloth::plugin::{ClothCouplingPlugin, ClothPlugin};
 use bevy_drape::cloth::wind_plugin::WindPlugin;
 use bevy_drape::collide::plugin::ColliderPlugin;
 use bevy_drape::fluid::plugin::{FluidPlugin, FluidSimulation};
+use bevy_drape::fluid::{FluidJet, FluidSettings};
 use bevy_drape::prelude::*;
 use bevy_drape::schedule::{DrapeSchedulePlugin, DrapeSystems};
 use bevy_drape::skeleton::plugin::SkeletonPlugin;

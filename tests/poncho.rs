@@ -3,6 +3,7 @@
 
 use bevy_drape::cloth::{PonchoDesc, to_obj};
 use bevy_drape::prelude::*;
+use bevy_drape::skeleton::plugin::{ClipAsset, SkeletonPose};
 use drape_scenes::poncho::{CharacterMotion, PonchoScene, run_headless};
 
 #[test]

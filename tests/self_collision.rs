@@ -1,12 +1,10 @@
 //! Self-collision in a headless App: the sheet-drop scene with and without it.
 
-use std::time::Duration;
+mod common;
 
-use bevy::asset::AssetPlugin;
-use bevy::mesh::MeshPlugin;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use bevy_drape::prelude::*;
+use common::{Headless, add_grid};
 use drape_scenes::scenes::{SheetDrop, closest_non_adjacent};
 
 /// Drops the sheet for 3 s in an App and returns, over every frame, the closest two particles
@@ -15,22 +13,9 @@ use drape_scenes::scenes::{SheetDrop, closest_non_adjacent};
 /// sheet makes when it lands may slide out flat again later, or not, depending on the last
 /// bits of the arithmetic.
 fn drop_sheet(self_collision: bool) -> (f32, usize) {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        DrapePlugins::default(),
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 60.0,
-    )));
+    let mut app = Headless::new().seconds_per_update(1.0 / 60.0).build();
     let scene = SheetDrop { n: 20 };
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&scene.grid()));
+    let mesh = add_grid(&mut app, &scene.grid());
     let settings = ClothSettings {
         solver: SheetDrop::settings(self_collision),
         ..default()

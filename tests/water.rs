@@ -1,31 +1,21 @@
 //! Water in a headless App (`MinimalPlugins`): a `Fluid` on a cloth's entity is stepped with
 //! the cloth, a lone jet fills a box, bad settings are refused with the app running on.
 
-use std::time::Duration;
+mod common;
 
-use bevy::asset::AssetPlugin;
-use bevy::mesh::{Mesh, MeshPlugin};
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
-use bevy::transform::TransformPlugin;
+use bevy_drape::fluid::plugin::FluidSimulation;
+use bevy_drape::fluid::{FluidJet, FluidSettings};
 use bevy_drape::prelude::*;
+use common::{Headless, add_grid};
 use drape_scenes::water::particles_below_sheet;
 
 /// A headless App stepping 1/60 s per update.
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        DrapePlugins::default(),
-    ))
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 60.0,
-    )))
-    .insert_resource(Time::<Fixed>::from_hz(60.0));
-    app
+    Headless::new()
+        .seconds_per_update(1.0 / 60.0)
+        .fixed_hz(60.0)
+        .build()
 }
 
 /// A sheet hung by its corners from four posts 70% of the way out, with a block of water
@@ -36,10 +26,7 @@ fn water_on_a_cloths_entity_falls_into_it_and_stays() {
     let mut app = app();
     let n = 13;
     let grid = GridDesc::square(0.6, n, Vec3::new(-0.3, 0.0, -0.3));
-    let mesh = app
-        .world_mut()
-        .resource_mut::<Assets<Mesh>>()
-        .add(grid_mesh(&grid));
+    let mesh = add_grid(&mut app, &grid);
     let corners = [0, n - 1, n * (n - 1), n * n - 1];
     let settings = ClothSettings {
         density: 0.2,

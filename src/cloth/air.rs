@@ -409,22 +409,19 @@ pub(crate) fn air_accelerations(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
 
-    fn random_vector(seed: &mut u32) -> Vec3A {
-        let mut next = || {
-            *seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (*seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
-        };
-        Vec3A::new(next(), next(), next())
+    fn random_vector(rng: &mut Rng) -> Vec3A {
+        rng.vec3(-1.0, 1.0).into()
     }
 
     #[test]
     fn the_force_reverses_with_the_flow_ignores_the_side_and_lifts_across() {
         let air = AirSettings::default();
-        let mut seed = 7;
+        let mut rng = Rng(7);
         for _ in 0..1000 {
-            let cross = random_vector(&mut seed);
-            let u = random_vector(&mut seed) * 20.0;
+            let cross = random_vector(&mut rng);
+            let u = random_vector(&mut rng) * 20.0;
             let f = triangle_force(&air, cross, u);
             assert!(f.is_finite());
             // Reversed flow, reversed force.
@@ -516,13 +513,13 @@ mod tests {
             strength: 5.0,
             ..Gusts::default()
         };
-        let mut seed = 3;
+        let mut rng = Rng(3);
         let (mut worst, mut sum_squares, mut count) = (0.0f32, 0.0f32, 0);
         for _ in 0..200 {
-            let centre = random_vector(&mut seed) * 20.0;
-            let t = random_vector(&mut seed).x.abs() * 100.0;
+            let centre = random_vector(&mut rng) * 20.0;
+            let t = random_vector(&mut rng).x.abs() * 100.0;
             let x: Vec<Vec3A> = (0..50)
-                .map(|_| centre + random_vector(&mut seed) * 0.5)
+                .map(|_| centre + random_vector(&mut rng) * 0.5)
                 .collect();
             let field = GustField::over(&gusts, &x, t).unwrap();
             for &p in &x {

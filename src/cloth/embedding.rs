@@ -340,8 +340,8 @@ impl TriangleGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
     use bevy::math::Quat;
-    use drape_scenes::scan::Rng;
 
     /// An `n` x `n` grid of side 1 with its inner vertices jittered by up to 0.3 spacing,
     /// bent by `bend(x, z)` into a surface, split along random diagonals.

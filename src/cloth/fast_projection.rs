@@ -191,37 +191,31 @@ impl FastProjection {
 mod tests {
     use super::*;
     use crate::cloth::model::{ClothModel, EdgeKind, GridDesc};
+    use crate::rng::Rng;
     use bevy::math::{Quat, UVec2, Vec2, Vec3};
-
-    fn rng(seed: &mut u64) -> f32 {
-        *seed ^= *seed << 13;
-        *seed ^= *seed >> 7;
-        *seed ^= *seed << 17;
-        (*seed >> 40) as f32 / (1u64 << 24) as f32
-    }
 
     /// Random grids, stretched and jittered at random, one corner pinned or none: a few steps
     /// bring every edge to its rest length, and with nothing pinned the centre of mass stays.
     #[test]
     fn random_stretched_grids_come_back_to_their_rest_lengths() {
-        let mut seed = 0x51f1_5ee7_c0ff_ee11u64;
+        let mut rng = Rng(0x51f1_5ee7_c0ff_ee11);
         for case in 0..8 {
-            let cols = 3 + (rng(&mut seed) * 20.0) as u32;
-            let rows = 3 + (rng(&mut seed) * 20.0) as u32;
+            let cols = 3 + (rng.uniform() * 20.0) as u32;
+            let rows = 3 + (rng.uniform() * 20.0) as u32;
             let grid = GridDesc {
-                size: Vec2::new(0.2 + rng(&mut seed), 0.2 + rng(&mut seed)),
+                size: Vec2::new(0.2 + rng.uniform(), 0.2 + rng.uniform()),
                 vertices: UVec2::new(cols, rows),
                 orientation: Quat::IDENTITY,
                 origin: Vec3::ZERO,
             };
             let model = ClothModel::grid(&grid, 0.2).unwrap();
-            let stretch = 1.0 + 0.05 * rng(&mut seed);
+            let stretch = 1.0 + 0.05 * rng.uniform();
             let edge = (grid.size.x / (cols - 1) as f32).min(grid.size.y / (rows - 1) as f32);
             let mut x: Vec<Vec3A> = model
                 .rest_positions
                 .iter()
                 .map(|&p| {
-                    let jitter = Vec3::new(rng(&mut seed), rng(&mut seed), rng(&mut seed)) - 0.5;
+                    let jitter = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5;
                     Vec3A::from(p * stretch + jitter * 0.02 * edge)
                 })
                 .collect();

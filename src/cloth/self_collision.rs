@@ -473,7 +473,7 @@ mod tests {
         let model =
             ClothModel::grid(&GridDesc::square(1.0, 9, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
         let mut sc = SelfCollision::new(&model, None).unwrap();
-        let mut rng = drape_scenes::scan::Rng(7);
+        let mut rng = crate::rng::Rng(7);
         // From a ball a few distances wide (dense cells) to a box far wider than the grid may
         // cover with cells of the query radius (the cells grow), and a cloud with one far
         // outlier and non-finite input.
@@ -532,7 +532,7 @@ mod tests {
             ClothModel::grid(&GridDesc::square(1.0, 9, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
         let mut sc = SelfCollision::new(&model, None).unwrap();
         let d = sc.distance();
-        let mut rng = drape_scenes::scan::Rng(11);
+        let mut rng = crate::rng::Rng(11);
         let dt = 1.0 / 60.0;
         let g = Vec3A::new(0.0, -9.81, 0.0);
         for _ in 0..20 {

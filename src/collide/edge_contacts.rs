@@ -290,18 +290,14 @@ fn closest_parameters(a: Vec3A, b: Vec3A, u: Vec3A, h: f32) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
 
     /// The closest parameters against a dense search along the segment (the closest point of
     /// the axis to each of its points is exact), on random segments and axes.
     #[test]
     fn closest_parameters_match_a_dense_search() {
-        let mut seed = 7u32;
-        let mut random = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 17;
-            seed ^= seed << 5;
-            seed as f32 / u32::MAX as f32 * 2.0 - 1.0
-        };
+        let mut rng = Rng(7);
+        let mut random = move || rng.range(-1.0, 1.0);
         for _ in 0..200 {
             let a = Vec3A::new(random(), random(), random());
             let b = Vec3A::new(random(), random(), random());

@@ -202,6 +202,7 @@ impl FrameTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
 
     fn pose(x: f32, yaw: f32) -> RigidPose {
         RigidPose {
@@ -243,11 +244,8 @@ mod tests {
     /// A smooth random motion: a circle with a wobble, turning about a tilted axis at a
     /// varying rate; its pose and exact velocities at `t`.
     fn smooth_motion(seed: u32, t: f32) -> (RigidPose, Vec3A, Vec3A) {
-        let mut state = seed.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-        let mut next = || {
-            state = state.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rng = Rng(seed.into());
+        let mut next = || rng.uniform();
         let (r, w, bob, spin, accel) = (
             0.5 + 2.0 * next(),
             0.3 + 2.0 * next(),

@@ -139,7 +139,7 @@ mod tests {
     use crate::collide::SolverShape;
     use bevy::math::Quat;
 
-    use drape_scenes::scan::Rng;
+    use crate::rng::Rng;
 
     /// A random vector in the cube of half side `scale`.
     fn vec(rng: &mut Rng, scale: f32) -> Vec3A {

@@ -54,14 +54,7 @@ impl Kernels {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A deterministic generator in [0, 1).
-    fn rng(state: &mut u64) -> f32 {
-        *state ^= *state << 13;
-        *state ^= *state >> 7;
-        *state ^= *state << 17;
-        (*state >> 40) as f32 / (1u64 << 24) as f32
-    }
+    use crate::rng::Rng;
 
     #[test]
     fn poly6_integrates_to_one_and_the_spiky_gradient_is_minus_its_kernels_slope() {
@@ -79,11 +72,10 @@ mod tests {
             assert!((integral - 1.0).abs() < 1e-4, "h {h}: {integral}");
             // The spiky kernel 15 / (pi h^6) (h - r)^3 differentiated numerically.
             let spiky = |r: f32| 15.0 / (PI * h.powi(6)) * (h - r).powi(3);
-            let mut s = 0x1234_5678_9abc_def1u64 ^ h.to_bits() as u64;
+            let mut rng = Rng(0x1234_5678_9abc_def1 ^ h.to_bits() as u64);
             for _ in 0..50 {
-                let dir =
-                    Vec3A::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s) - 0.5).normalize();
-                let r = h * (0.05 + 0.9 * rng(&mut s));
+                let dir = Vec3A::from(rng.unit_vector());
+                let r = h * (0.05 + 0.9 * rng.uniform());
                 let e = h * 1e-3;
                 let slope = (spiky(r + e) - spiky(r - e)) / (2.0 * e);
                 let g = k.spiky_gradient(dir * r);

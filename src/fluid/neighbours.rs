@@ -121,33 +121,23 @@ impl Neighbours {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn rng(state: &mut u64) -> f32 {
-        *state ^= *state << 13;
-        *state ^= *state >> 7;
-        *state ^= *state << 17;
-        (*state >> 40) as f32 / (1u64 << 24) as f32
-    }
+    use crate::rng::Rng;
 
     #[test]
     fn the_grid_finds_exactly_the_pairs_a_brute_force_search_finds() {
-        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
         let mut grid = Neighbours::default();
         for case in 0..6 {
             let n = 50 + 150 * case;
             // Clustered and spread clouds, some at negative coordinates and far from the origin.
-            let spread = 0.05 + 0.3 * rng(&mut s);
-            let offset = Vec3A::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s)) * 40.0;
+            let spread = 0.05 + 0.3 * rng.uniform();
+            let offset = Vec3A::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform()) * 40.0;
             let x: Vec<Vec3A> = (0..n)
-                .map(|_| {
-                    offset
-                        + Vec3A::new(rng(&mut s) - 0.5, rng(&mut s) - 0.5, rng(&mut s) - 0.5)
-                            * spread
-                })
+                .map(|_| offset + Vec3A::from(rng.vec3(-0.5, 0.5)) * spread)
                 .collect();
-            let h = 0.02 + 0.05 * rng(&mut s);
+            let h = 0.02 + 0.05 * rng.uniform();
             // Margins of all sizes, most at rest (0), some up to h / 2.
-            let margins: Vec<f32> = (0..n).map(|_| (rng(&mut s) - 0.5).max(0.0) * h).collect();
+            let margins: Vec<f32> = (0..n).map(|_| (rng.uniform() - 0.5).max(0.0) * h).collect();
             grid.build(&x, h, &margins);
             let mut pairs = 0;
             for i in 0..n {

@@ -17,6 +17,8 @@ use bevy::reflect::{GetPath, PartialReflect};
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformPlugin;
 use bevy_drape::prelude::*;
+use bevy_drape::schedule::StepColliders;
+use bevy_drape::skeleton::plugin::BoneProxyOf;
 use bevy_inspector_egui::DefaultInspectorConfigPlugin;
 use bevy_inspector_egui::bevy_inspector::{ui_for_entity, ui_for_resource};
 use bevy_inspector_egui::egui;

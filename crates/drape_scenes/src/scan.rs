@@ -7,24 +7,8 @@ use std::f32::consts::{PI, TAU};
 
 use bevy::math::Vec3;
 
-/// A small deterministic random generator.
-pub struct Rng(pub u64);
-
-impl Rng {
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.uniform()
-    }
-}
+/// The small deterministic random generator of the crate's tests (`bevy_drape::rng`).
+pub use bevy_drape::rng::Rng;
 
 /// A model like a scan: a jittered head of radius about `radius` at the origin, open below,
 /// with two thin ears on top.

@@ -277,6 +277,7 @@ mod tests {
 
     use super::*;
     use crate::cloth::model::{ClothModel, GridDesc};
+    use crate::rng::Rng;
 
     /// The edges of an `n` x `n` grid as batches, their particles renumbered by `order`.
     fn grid_edges(n: u32, order: &[u32]) -> (Vec<f32>, PairBatches) {
@@ -314,13 +315,7 @@ mod tests {
 
         // The same grid numbered at random: the middle index cuts it everywhere.
         let mut order = identity.clone();
-        let mut seed = 5u64;
-        for i in (1..order.len()).rev() {
-            seed = seed
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            order.swap(i, (seed >> 33) as usize % (i + 1));
-        }
+        Rng(5).shuffle(&mut order);
         let (w, shuffled) = grid_edges(n, &order);
         assert!(Halves::new(&w, &shuffled, &none, &none, &[], &[]).is_none());
 

@@ -1,4 +1,5 @@
 use super::*;
+use crate::rng::Rng;
 
 /// A closed box mesh of `n` x `n` quads per face would do; a bumpy grid is enough here.
 fn bumpy_grid(n: u32) -> (Vec<Vec3>, Vec<u32>) {
@@ -23,11 +24,8 @@ fn bumpy_grid(n: u32) -> (Vec<Vec3>, Vec<u32>) {
 fn the_hierarchy_finds_the_same_closest_point_as_brute_force() {
     let (v, idx) = bumpy_grid(17);
     let mesh = TriMesh::new(&v, &idx).unwrap();
-    let mut seed = 12345u32;
-    let mut rand = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32
-    };
+    let mut rng = Rng(12345);
+    let mut rand = || rng.uniform();
     for _ in 0..500 {
         let p = Vec3A::new(rand() * 1.4 - 0.2, rand() * 0.8 - 0.4, rand() * 1.4 - 0.2);
         let brute = idx
@@ -65,23 +63,15 @@ fn closest_point_on_a_triangle_covers_every_region() {
     }
 }
 
-struct Rng(u32);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (self.0 >> 8) as f32 / (1u32 << 24) as f32
-    }
-
-    fn point(&mut self, half: f32) -> Vec3A {
-        Vec3A::new(self.next(), self.next(), self.next()) * (2.0 * half) - half
-    }
+/// A point uniform in the cube of half side `half` about the origin.
+fn point(rng: &mut Rng, half: f32) -> Vec3A {
+    rng.vec3(-half, half).into()
 }
 
 /// A closed UV sphere of radius about 1 with each vertex's radius jittered by `noise`
 /// (dented, not convex, for large noise).
 fn dented_sphere(rng: &mut Rng, rings: u32, segments: u32, noise: f32) -> (Vec<Vec3>, Vec<u32>) {
-    let mut jitter = || 1.0 + noise * (2.0 * rng.next() - 1.0);
+    let mut jitter = || 1.0 + noise * rng.range(-1.0, 1.0);
     let mut v = vec![Vec3::Y * jitter(), -Vec3::Y * jitter()];
     for r in 1..rings {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
@@ -136,7 +126,7 @@ fn inside_by_pseudo_normals_is_inside_by_ray_parity_on_random_dented_closed_mesh
         assert!(mesh.is_closed());
         let shape = mesh.clone();
         for _ in 0..3000 {
-            let p = rng.point(1.4);
+            let p = point(&mut rng, 1.4);
             let Some((d, n)) = shape.signed_distance(p, 0.15) else {
                 continue;
             };
@@ -214,7 +204,7 @@ fn an_open_mesh_has_no_inside() {
     let shape = TriMesh::new(&v, &open).unwrap();
     let mut found = 0;
     for _ in 0..2000 {
-        let p = rng.point(1.0);
+        let p = point(&mut rng, 1.0);
         if let Some((d, _)) = shape.signed_distance(p, 0.2) {
             assert!(d >= 0.0, "{p}: {d}");
             found += 1;
@@ -251,8 +241,8 @@ fn the_first_crossing_is_the_nearest_a_brute_force_search_finds() {
     let mut rng = Rng(77);
     let mut hits = 0;
     for _ in 0..2000 {
-        let from = rng.point(0.7) + Vec3A::new(0.5, 0.0, 0.5);
-        let to = rng.point(0.7) + Vec3A::new(0.5, 0.0, 0.5);
+        let from = point(&mut rng, 0.7) + Vec3A::new(0.5, 0.0, 0.5);
+        let to = point(&mut rng, 0.7) + Vec3A::new(0.5, 0.0, 0.5);
         let brute = idx
             .chunks_exact(3)
             .filter_map(|t| {

@@ -563,6 +563,7 @@ impl FluidSolver {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
 
     #[test]
     fn bad_settings_and_particles_are_refused_and_bad_steps_change_nothing() {
@@ -611,17 +612,9 @@ mod tests {
     /// momentum changes by the weight's impulse alone.
     #[test]
     fn a_falling_cloud_keeps_its_momentum_but_for_gravity() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-        };
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let mut fluid = FluidSolver::new(FluidSettings::default()).unwrap();
-        let points: Vec<Vec3> = (0..400)
-            .map(|_| Vec3::new(next(), next(), next()) * 0.12)
-            .collect();
+        let points: Vec<Vec3> = (0..400).map(|_| rng.vec3(-0.5, 0.5) * 0.12).collect();
         fluid
             .add_particles(&points, Vec3::new(0.3, 1.0, 0.0))
             .unwrap();

@@ -1,4 +1,5 @@
 use super::*;
+use crate::rng::Rng;
 use bevy::math::cubic_splines::{CubicCardinalSpline, CubicGenerator, CyclicCubicGenerator};
 
 const TIMES: [f32; 6] = [0.0, 0.3, 0.45, 1.2, 1.5, 2.4];
@@ -159,11 +160,8 @@ fn the_angular_velocity_is_continuous_at_every_key_for_random_keys_and_times() {
     // Random rotations at random times (spacings from 0.1 to 1.1 s), clamped and looping:
     // the angular velocity just before and just after every key agree, and between keys
     // it is the derivative of the rotation.
-    let mut seed = 17u32;
-    let mut next = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32
-    };
+    let mut rng = Rng(17);
+    let mut next = || rng.uniform();
     let (mut worst_jump, mut worst_derivative) = (0.0f32, 0.0f32);
     for _ in 0..200 {
         let n = 3 + (next() * 6.0) as usize;
@@ -230,11 +228,8 @@ fn the_angular_velocity_is_continuous_at_every_key_for_random_keys_and_times() {
 
 #[test]
 fn the_inverse_right_jacobian_inverts_the_right_jacobian() {
-    let mut seed = 5u32;
-    let mut next = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
-    };
+    let mut rng = Rng(5);
+    let mut next = || rng.range(-1.0, 1.0);
     for _ in 0..1000 {
         let scale = if next() > 0.0 { 3.0 } else { 1e-5 };
         let r = Vec3::new(next(), next(), next()) * scale;

@@ -30,7 +30,7 @@ impl Drape {
     /// Margin of both colliders, m.
     pub const MARGIN: f32 = 0.005;
     /// The sheet's bending compliance, 1/(N m): a bending stiffness of `1 / compliance` =
-    /// 1e-5 N m in every direction (`tests/cloth_core.rs` wraps the grid round cylinders), a
+    /// 1e-5 N m in every direction (`tests/cloth_statics.rs` wraps the grid round cylinders), a
     /// bending length `(B / (rho g))^(1/3)` of 2.2 cm at 0.1 kg/m^2, a light fabric's; the
     /// `MuJoCo` and Newton cloths the S1 comparison runs bend with 0.9e-5 and 1e-5 N m. The
     /// library's default, 500, is 200 times stiffer (a bending length of 13 cm, a thin

@@ -39,18 +39,17 @@ pub fn snake() -> Rig {
     Rig::new(&bones).expect("the snake's bones are valid by construction")
 }
 
-/// The rest pose of `rig` with `chain`'s angles random within their limits (a linear
-/// congruential generator on `seed`).
+/// The rest pose of `rig` with `chain`'s angles random within their limits (the generator
+/// [`Rng`](crate::scan::Rng) on `seed`, which is left where the generator ends).
 pub fn random_pose(rig: &Rig, chain: &IkChain, seed: &mut u64) -> Pose {
+    let mut rng = crate::scan::Rng(*seed);
     let mut pose = rig.rest_pose();
     for &b in &chain.bones {
         if let Some((lo, hi)) = rig.bones()[b].limits {
-            *seed = seed
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            pose.angles[b] = lo + (hi - lo) * ((*seed >> 40) as f32 / (1u64 << 24) as f32);
+            pose.angles[b] = rng.range(lo, hi);
         }
     }
+    *seed = rng.0;
     pose
 }
 

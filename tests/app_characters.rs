@@ -1,0 +1,251 @@
+//! Characters in a headless App: a skeleton playing a clip file, inverse kinematics on top of
+//! the clip, bone colliders attached by name to any hierarchy.
+
+mod common;
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy_drape::collide::plugin::ColliderState;
+use bevy_drape::prelude::*;
+use bevy_drape::skeleton::clip::ClipDesc;
+use bevy_drape::skeleton::plugin::{
+    BoneEntity, BoneProxyOf, ClipAsset, SkeletonBones, SkeletonPose,
+};
+use common::app;
+
+#[test]
+fn a_skeleton_plays_a_clip_file_poses_its_bones_and_publishes_their_velocities() {
+    let mut app = app();
+    let clip: Handle<ClipAsset> = app
+        .world()
+        .resource::<AssetServer>()
+        .load("clips/walk.clip.ron");
+    let rig = std::sync::Arc::new(humanoid());
+    let character = app
+        .world_mut()
+        .spawn((Skeleton { rig: rig.clone() }, ClipPlayer::new(clip.clone())))
+        .id();
+    // Wait for the file.
+    for _ in 0..200 {
+        app.update();
+        if app
+            .world()
+            .resource::<Assets<ClipAsset>>()
+            .get(&clip)
+            .is_some()
+        {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(
+        app.world()
+            .resource::<Assets<ClipAsset>>()
+            .get(&clip)
+            .is_some()
+    );
+    let bones = app.world().get::<SkeletonBones>(character).unwrap().clone();
+    assert_eq!(bones.entities().len(), 19);
+    // A capsule on the left shin, halfway down it.
+    let shin = bones.get("shin_l").unwrap();
+    let proxy = app
+        .world_mut()
+        .spawn((
+            ClothCollider::capsule(0.05, 0.15),
+            Transform::from_xyz(0.0, -0.21, 0.0),
+            ChildOf(shin),
+        ))
+        .id();
+    for _ in 0..20 {
+        app.update();
+    }
+    let pose = app.world().get::<SkeletonPose>(character).unwrap().clone();
+    // The bone entities carry the forward kinematics of the sampled pose: composing their
+    // local transforms of this fixed step from the pelvis down gives the FK positions. (Their
+    // `Transform`s show the step before, interpolated for rendering.)
+    for name in ["foot_l", "hand_r", "head"] {
+        let index = rig.find(name).unwrap();
+        let mut chain = vec![index];
+        while let Some(p) = rig.bones()[*chain.last().unwrap()].parent {
+            chain.push(p);
+        }
+        let mut world = Transform::IDENTITY;
+        for &b in chain.iter().rev() {
+            let bone = app
+                .world()
+                .get::<BoneEntity>(bones.entity(b).unwrap())
+                .unwrap();
+            world = world * bone.current();
+        }
+        let fk = pose.bones[index].translation;
+        assert!(
+            world.translation.distance(fk) < 1e-5,
+            "{name}: {} vs {fk}",
+            world.translation
+        );
+    }
+    // The swinging shin has a velocity, and the proxy hanging from it moves with it.
+    let shin_state = pose.bones[rig.find("shin_l").unwrap()];
+    assert!(shin_state.angular_velocity.length() > 0.1);
+    let collider = app
+        .world()
+        .get::<ColliderState>(proxy)
+        .unwrap()
+        .collider()
+        .cloned()
+        .unwrap();
+    let expected = shin_state.point_velocity(Vec3::from(collider.end.translation));
+    assert!(
+        (Vec3::from(collider.linear_velocity) - expected).length() < 0.05 * expected.length(),
+        "{} vs {expected}",
+        collider.linear_velocity
+    );
+}
+
+#[test]
+fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
+    let mut app = app();
+    let clip = app
+        .world_mut()
+        .resource_mut::<Assets<ClipAsset>>()
+        .add(ClipAsset(
+            ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap(),
+        ));
+    let rig = std::sync::Arc::new(humanoid());
+    let marker = app
+        .world_mut()
+        .spawn(Transform::from_xyz(-0.3, 1.2, 2.35))
+        .id();
+    let goal = |end: &str, target| IkGoal {
+        end_bone: end.into(),
+        length: 3,
+        effector: Vec3::new(0.0, -0.25, 0.0),
+        target,
+        settings: IkSettings::default(),
+        weight: 1.0,
+        max_speed: IkGoal::DEFAULT_MAX_SPEED,
+    };
+    let character = app
+        .world_mut()
+        .spawn((
+            Skeleton { rig: rig.clone() },
+            ClipPlayer::new(clip),
+            InverseKinematics {
+                goals: vec![
+                    // Entity and point targets, 2 m forward of the origin where the character
+                    // stands.
+                    goal("forearm_r", IkTarget::Entity(marker)),
+                    goal("forearm_l", IkTarget::Point(Vec3::new(0.35, 1.1, 2.3))),
+                    goal("tail", IkTarget::Point(Vec3::ZERO)),
+                ],
+                results: Vec::new(),
+            },
+            Transform::from_xyz(0.0, 0.0, 2.0),
+        ))
+        .id();
+    for _ in 0..30 {
+        app.update();
+    }
+    let ik = app.world().get::<InverseKinematics>(character).unwrap();
+    let pose = app.world().get::<SkeletonPose>(character).unwrap();
+    assert_eq!(ik.results.len(), 3);
+    assert!(ik.results[2].is_none(), "the bad goal is skipped");
+    for (g, (bone, target)) in [
+        ("forearm_r", Vec3::new(-0.3, 1.2, 2.35)),
+        ("forearm_l", Vec3::new(0.35, 1.1, 2.3)),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let result = ik.results[g].unwrap();
+        assert!(result.reached, "{bone}: {result:?}");
+        let b = pose.bones[rig.find(bone).unwrap()];
+        let wrist = b.translation + b.rotation * Vec3::new(0.0, -0.25, 0.0) + Vec3::Z * 2.0;
+        assert!(wrist.distance(target) < 1e-3, "{bone}: {wrist} vs {target}");
+    }
+}
+
+#[test]
+fn bone_colliders_attach_by_name_to_any_hierarchy_once_it_is_there() {
+    // A hierarchy of the game's own (as a glTF scene spawns it, some frames late): the root
+    // with `BoneColliders` first, the joints after. A name found twice takes the shallower
+    // joint; a proxy on a joint the hierarchy does not have is skipped.
+    let mut app = app();
+    let mut colliders = BoneColliders::humanoid();
+    colliders
+        .proxies
+        .retain(|p| p.bone == "pelvis" || p.bone == "spine");
+    let mut tail = colliders.proxies[0].clone();
+    tail.bone = "tail".into();
+    colliders.proxies.push(tail);
+    let root = app
+        .world_mut()
+        .spawn((colliders.clone(), Transform::default()))
+        .id();
+    let proxies_of = |app: &mut App| {
+        let world = app.world_mut();
+        let mut found: Vec<(String, Entity, f32)> = world
+            .query::<(&Name, &ClothCollider, &BoneProxyOf, &ChildOf)>()
+            .iter(world)
+            .filter(|(_, _, of, _)| of.0 == root)
+            .map(|(name, c, _, parent)| {
+                let radius = match c.shape {
+                    ColliderShape::Capsule { radius, .. } => radius,
+                    _ => panic!("proxies are capsules"),
+                };
+                (name.to_string(), parent.parent(), radius)
+            })
+            .collect();
+        found.sort_by(|a, b| a.0.cmp(&b.0));
+        found
+    };
+    for _ in 0..3 {
+        app.update();
+    }
+    assert!(proxies_of(&mut app).is_empty(), "nothing to attach to yet");
+    let world = app.world_mut();
+    let pelvis = world
+        .spawn((Name::new("pelvis"), Transform::default(), ChildOf(root)))
+        .id();
+    let spine = world
+        .spawn((Name::new("spine"), Transform::default(), ChildOf(pelvis)))
+        .id();
+    world.spawn((Name::new("pelvis"), Transform::default(), ChildOf(spine)));
+    app.update();
+    app.update();
+    let found = proxies_of(&mut app);
+    let pelvis_proxies = colliders
+        .proxies
+        .iter()
+        .filter(|p| p.bone == "pelvis")
+        .count();
+    assert_eq!(found.len(), colliders.proxies.len() - 1, "{found:?}");
+    assert!(
+        found
+            .iter()
+            .filter(|f| f.0 == "pelvis proxy")
+            .all(|f| f.1 == pelvis)
+    );
+    assert_eq!(
+        found.iter().filter(|f| f.1 == pelvis).count(),
+        pelvis_proxies
+    );
+    assert!(
+        found
+            .iter()
+            .filter(|f| f.0 == "spine proxy")
+            .all(|f| f.1 == spine)
+    );
+    // An edit (an inspector's, a file's): the proxies are spawned again from it, once.
+    app.world_mut()
+        .get_mut::<BoneColliders>(root)
+        .unwrap()
+        .proxies[0]
+        .radius = 0.25;
+    app.update();
+    app.update();
+    let again = proxies_of(&mut app);
+    assert_eq!(again.len(), found.len());
+    assert_eq!(again.iter().filter(|f| f.2 == 0.25).count(), 1);
+}

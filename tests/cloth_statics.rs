@@ -1,0 +1,286 @@
+//! The cloth core at rest against analytic shapes and bounds, without an App: sag and strain
+//! of a hanging cloth, tethers, the ground, a cantilever, a catenary, the bending stiffness of
+//! a grid.
+
+mod common;
+
+use bevy::math::Vec3;
+use bevy_drape::cloth::{
+    ClothModel, ClothSolver, DampingMode, GridDesc, SolverMethod, SolverSettings,
+};
+use common::{Rng, free_grid};
+use drape_scenes::scenes::{GRAVITY, HangingCloth, lowest_height};
+use drape_scenes::study::sag;
+
+const DT: f32 = 1.0 / 60.0;
+
+/// Sag of the S1 cloth (N = 16) at rest with stretch compliance 0.05 m/N.
+fn s1_sag(method: SolverMethod, iterations: u32) -> f32 {
+    sag(method, iterations, 0.05)
+}
+
+#[test]
+fn xpbd_sag_does_not_depend_on_iterations_but_pbd_sag_does() {
+    let spread = |sags: &[f32]| {
+        let max = sags.iter().copied().fold(f32::MIN, f32::max);
+        let min = sags.iter().copied().fold(f32::MAX, f32::min);
+        (max - min) / min
+    };
+    let xpbd: Vec<f32> = [5, 10, 20]
+        .map(|it| s1_sag(SolverMethod::Xpbd, it))
+        .to_vec();
+    let pbd: Vec<f32> = [5, 10, 20]
+        .map(|it| s1_sag(SolverMethod::Pbd { stiffness: 0.05 }, it))
+        .to_vec();
+    let inextensible = sag(SolverMethod::Xpbd, 20, 0.0);
+    println!("sag at 5/10/20 iterations: XPBD {xpbd:?}, PBD {pbd:?}, inextensible {inextensible}");
+    // The compliance is visible: the cloth hangs centimetres lower than an inextensible one.
+    assert!(xpbd[0] > inextensible + 0.03);
+    assert!(spread(&xpbd) < 0.05, "XPBD sag spread {}", spread(&xpbd));
+    assert!(
+        spread(&pbd) > 3.0 * spread(&xpbd),
+        "PBD sag spread {} vs XPBD {}",
+        spread(&pbd),
+        spread(&xpbd)
+    );
+}
+
+#[test]
+fn s1_at_n32_with_compliance_zero_stays_below_one_percent_strain() {
+    // The budget: the defaults, 8 substeps x 2 iterations per 1/60 s frame, long-range
+    // attachments and stretch limits on.
+    let settings = SolverSettings::default();
+    assert_eq!((settings.substeps, settings.iterations), (8, 2));
+    let run = HangingCloth { n: 32 }.run(&settings, 120);
+    let max_strain = run.trajectory.end_strain();
+    println!(
+        "S1 N=32 8x2: max strain {max_strain}, mean {}",
+        run.mean_strain
+    );
+    assert!(run.finite);
+    assert!(max_strain < 0.01, "max strain {max_strain}");
+    // The cloth did fall: the free corner left its start (1, 1, 1).
+    let corner = *run.trajectory.corner.last().unwrap();
+    assert!(corner.distance(Vec3::ONE) > 0.3);
+}
+
+#[test]
+fn tethers_bound_the_stretch_of_a_pinned_cloth() {
+    let scene = HangingCloth { n: 24 };
+    let sim = |tethers: bool| {
+        let settings = SolverSettings {
+            substeps: 2,
+            iterations: 2,
+            long_range_attachments: tethers,
+            ..Default::default()
+        };
+        scene.run(&settings, 60).trajectory.end_strain()
+    };
+    let (with, without) = (sim(true), sim(false));
+    println!("max strain at a small budget: with tethers {with}, without {without}");
+    assert!(with < 0.5 * without);
+}
+
+#[test]
+fn ground_plane_holds_a_dropped_cloth_at_its_thickness() {
+    let mut sim = free_grid(10);
+    sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
+        0.0,
+        Default::default(),
+    )])
+    .unwrap();
+    let settings = SolverSettings::default();
+    for _ in 0..180 {
+        sim.step(&settings, GRAVITY, DT).unwrap();
+    }
+    for p in &sim.state().positions {
+        assert!(p.y >= settings.thickness - 1e-5, "{p}");
+        assert!(p.y < settings.thickness + 1e-3, "{p}");
+    }
+    assert!(sim.kinetic_energy() < 1e-6);
+}
+
+/// Tip sag of a clamped horizontal strip held up by its bending stiffness.
+fn cantilever_sag(isometric: bool, bend_compliance: f32) -> f32 {
+    let grid = GridDesc {
+        size: bevy::math::Vec2::new(0.15, 0.1),
+        vertices: bevy::math::UVec2::new(7, 5),
+        orientation: bevy::math::Quat::IDENTITY,
+        origin: Vec3::new(0.0, 1.0, 0.0),
+    };
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
+    let clamped: Vec<u32> = (0..5)
+        .flat_map(|j| [grid.index(0, j), grid.index(1, j)])
+        .collect();
+    sim.set_pins(&clamped).unwrap();
+    let settings = SolverSettings {
+        substeps: 32,
+        iterations: 2,
+        bend_compliance,
+        isometric_bending: isometric,
+        damping: 8.0,
+        damping_mode: DampingMode::Plain,
+        ..Default::default()
+    };
+    for _ in 0..180 {
+        sim.step(&settings, GRAVITY, DT).unwrap();
+    }
+    let tip = (0..5)
+        .map(|j| sim.state().positions[grid.index(6, j) as usize].y)
+        .sum::<f32>()
+        / 5.0;
+    1.0 - tip
+}
+
+#[test]
+fn isometric_and_dihedral_bending_hold_a_cantilever_alike() {
+    let stiff_iso = cantilever_sag(true, 10.0);
+    let stiff_dihedral = cantilever_sag(false, 10.0);
+    let soft_iso = cantilever_sag(true, 1000.0);
+    let soft_dihedral = cantilever_sag(false, 1000.0);
+    println!(
+        "cantilever sag: compliance 10: isometric {stiff_iso}, dihedral {stiff_dihedral}; \
+         compliance 1000: isometric {soft_iso}, dihedral {soft_dihedral}"
+    );
+    // Bending is what holds the strip: a softer one sags clearly more.
+    assert!(soft_dihedral > 5.0 * stiff_dihedral);
+    for (iso, dihedral) in [(stiff_iso, stiff_dihedral), (soft_iso, soft_dihedral)] {
+        assert!(
+            (iso - dihedral).abs() < 0.03 * dihedral,
+            "isometric {iso} vs dihedral {dihedral}"
+        );
+    }
+}
+
+/// The sag `a cosh(S / 2a) - a` of a catenary of length `length` hung between two points
+/// `span` apart at the same height, with `2 a sinh(S / 2a) = length` solved by bisection.
+fn catenary_sag(span: f32, length: f32) -> f32 {
+    let (mut lo, mut hi) = (1e-3f64, 1e3f64);
+    let (s, l) = (span as f64, length as f64);
+    for _ in 0..200 {
+        let a = 0.5 * (lo + hi);
+        if 2.0 * a * (s / (2.0 * a)).sinh() > l {
+            lo = a;
+        } else {
+            hi = a;
+        }
+    }
+    let a = 0.5 * (lo + hi);
+    (a * (s / (2.0 * a)).cosh() - a) as f32
+}
+
+#[test]
+fn a_rope_built_as_a_v_hangs_into_its_catenary_with_long_range_attachments_on() {
+    // 50 equal segments pinned at both ends 1 m apart, 1.2 m long, built with both arms
+    // straight (a V, its tip 0.33 m below the pins): the tethers to the pins are as long as
+    // the rope between (not the straight line across the V), so nothing holds the V.
+    for (segments, tip_side) in [(50u32, 0.5f32), (40, 0.3)] {
+        let (span, length) = (1.0f32, 1.2f32);
+        // The V's tip at `tip_side` of the span, both arms straight.
+        let tip_x = tip_side * span;
+        let depth = {
+            // Arms of lengths l1 + l2 = length from (0, 0) and (span, 0) to (tip_x, -depth).
+            let (mut lo, mut hi) = (0.0f32, length);
+            for _ in 0..100 {
+                let d = 0.5 * (lo + hi);
+                let total =
+                    (tip_x * tip_x + d * d).sqrt() + ((span - tip_x).powi(2) + d * d).sqrt();
+                if total > length { hi = d } else { lo = d }
+            }
+            0.5 * (lo + hi)
+        };
+        let tip = Vec3::new(tip_x, -depth, 0.0);
+        let first_arm = tip.length();
+        let n = segments as usize + 1;
+        // Particles at equal arc length along the V.
+        let positions: Vec<Vec3> = (0..n)
+            .map(|k| {
+                let s = length * k as f32 / segments as f32;
+                if s <= first_arm {
+                    tip * (s / first_arm)
+                } else {
+                    tip + (Vec3::new(span, 0.0, 0.0) - tip).normalize() * (s - first_arm)
+                }
+            })
+            .collect();
+        let edges: Vec<[u32; 2]> = (0..segments).map(|k| [k, k + 1]).collect();
+        let model = ClothModel::from_particles(&positions, &vec![0.01; n], &edges).unwrap();
+        let mut sim = ClothSolver::new(model);
+        sim.set_pins(&[0, segments]).unwrap();
+        let settings = SolverSettings {
+            damping: 2.0,
+            ..Default::default()
+        };
+        for _ in 0..600 {
+            sim.step(&settings, GRAVITY, DT).unwrap();
+        }
+        let lowest = lowest_height(&sim);
+        let expected = catenary_sag(span, length);
+        println!(
+            "{segments} segments, V tip at {tip_side}: sag {:.4} m, catenary {expected:.4} m, V {depth:.4} m",
+            -lowest
+        );
+        // Within 0.5% of the span of the catenary (the beads make it a discrete one), and
+        // the V's tip came up.
+        assert!(
+            (-lowest - expected).abs() < 0.005 * span,
+            "{} vs {expected}",
+            -lowest
+        );
+    }
+}
+
+/// The bending stiffness `B` (N m: energy per area `B kappa^2 / 2` at curvature `kappa`) of a
+/// grid whose bending pairs each store `theta^2 / 2` per unit of stiffness (compliance 1): the
+/// grid wrapped isometrically round cylinders of random radius, across its grid lines and
+/// along either diagonal, the energy summed over the model's own bending pairs. `B` is
+/// `1 / bend_compliance` in every direction, the figure the S2 scene's bending is chosen with
+/// (`Drape::BEND_COMPLIANCE`).
+#[test]
+fn a_grid_bends_with_one_over_the_bend_compliance_in_every_direction() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    for _ in 0..4 {
+        let n = 32 + (rng.uniform() * 32.0) as u32;
+        let radius = 0.3 + rng.uniform();
+        let model = ClothModel::grid(&GridDesc::square(1.0, n, Vec3::ZERO), 0.1).unwrap();
+        // Bent with its lines (`diagonal` 0) or a diagonal (+1 or -1) round the curve.
+        let stiffness = |diagonal: f32| {
+            // Unrolled length `u` along the curve, `w` along the cylinder's axis.
+            let wrapped: Vec<Vec3> = model
+                .rest_positions
+                .iter()
+                .map(|p| {
+                    let (u, w) = if diagonal != 0.0 {
+                        (
+                            (p.x + diagonal * p.z) / 2f32.sqrt(),
+                            (p.z - diagonal * p.x) / 2f32.sqrt(),
+                        )
+                    } else {
+                        (p.x, p.z)
+                    };
+                    let angle = u / radius;
+                    Vec3::new(radius * angle.sin(), radius * (1.0 - angle.cos()), w)
+                })
+                .collect();
+            let energy: f64 = model
+                .bending_pairs
+                .iter()
+                .map(|pair| {
+                    let [a, b, c, d] = pair.particles.map(|i| wrapped[i as usize]);
+                    let n1 = (b - a).cross(c - a);
+                    let n2 = (d - a).cross(b - a);
+                    let theta = n1.cross(n2).length().atan2(n1.dot(n2)) as f64;
+                    0.5 * theta * theta
+                })
+                .sum();
+            // Unit area, curvature 1 / radius.
+            2.0 * energy * (radius as f64).powi(2)
+        };
+        for diagonal in [0.0, 1.0, -1.0] {
+            let b = stiffness(diagonal);
+            println!("n {n}, radius {radius:.2}, diagonal {diagonal}: B {b:.4}");
+            // The pairs along the border are missing: within 2 / n of the interior's value.
+            assert!((b - 1.0).abs() < 0.01 + 2.0 / n as f64, "{b}");
+        }
+    }
+}
