@@ -1,5 +1,5 @@
 //! A mass-spring cloth thrown into a box: it bounces off the walls and lands on two resting
-//! spheres and one sweeping back and forth (the `collisions` scene of the scenes runner, `crates/drape_scenes/src/scenes.rs`).
+//! spheres and one sweeping back and forth (the `collisions` scene of the scenes runner, `crates/drape_scenes/src/scenes/collisions.rs`).
 //!
 //! ```text
 //! cargo run --features egui --example collisions

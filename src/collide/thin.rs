@@ -1,5 +1,5 @@
 //! The cloth's triangles against the thin vertices of triangle-mesh colliders (the tip of an
-//! ear, the ridge of a fin, the rim of an open mesh: see `collide/trimesh.rs`), so that a
+//! ear, the ridge of a fin, the rim of an open mesh: see `collide/trimesh/`), so that a
 //! feature narrower than the cloth's particle spacing cannot pass between its particles.
 //!
 //! Candidates are found once per fixed step: a thin vertex's path over the step (start to end
