@@ -7,8 +7,8 @@
 //!
 //! | component | file | an entity with it |
 //! |---|---|---|
-//! | [`ClothSettings`] | `.cloth.ron` | [`ClothSettingsFile`] |
-//! | [`BoneColliders`] | `.colliders.ron` | [`BoneCollidersFile`] (the proxies are spawned again when it changes) |
+//! | [`ClothSettings`](crate::cloth::plugin::ClothSettings) | `.cloth.ron` | [`ClothSettingsFile`](crate::cloth::plugin::ClothSettingsFile) |
+//! | [`BoneColliders`](crate::skeleton::plugin::BoneColliders) | `.colliders.ron` | [`BoneCollidersFile`](crate::skeleton::plugin::BoneCollidersFile) (the proxies are spawned again when it changes) |
 //!
 //! [`to_ron`] writes any value as a complete file to start from.
 

@@ -185,7 +185,7 @@ pub struct DrapeSettings {
     pub paused: bool,
     /// When a character, a collider or a followed entity moves so far in one fixed step that
     /// it counts as a jump (a teleport, a respawn) rather than motion: colliders are then not
-    /// swept through the space between, and cloths following it ([`Cloth::follow`]) are
+    /// swept through the space between, and cloths following it ([`Cloth::follow`](crate::cloth::plugin::Cloth::follow)) are
     /// carried along rigidly. `None` takes every pose change as motion. Default:
     /// [`Teleport::default`] (1 m or 60 degrees in one step).
     pub teleport: Option<Teleport>,

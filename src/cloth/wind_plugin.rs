@@ -1,6 +1,6 @@
 //! The wind as an app sets it: the [`Wind`] resource (everywhere, with gusts) and
 //! [`WindSource`] entities (fans and blasts), gathered once per fixed step into the
-//! [`WindField`] that every cloth with air ([`crate::cloth::SolverSettings::air`]) is given.
+//! [`WindField`](crate::cloth::WindField) that every cloth with air ([`crate::cloth::SolverSettings::air`]) is given.
 
 use std::collections::HashSet;
 

@@ -30,7 +30,7 @@ pub enum FluidSource {
     Jet(FluidJet),
 }
 
-/// A body of fluid particles (Position Based Fluids). On a [`Cloth`]'s entity, it is water
+/// A body of fluid particles (Position Based Fluids). On a [`Cloth`](crate::cloth::plugin::Cloth)'s entity, it is water
 /// in that cloth, stepped with it.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
 #[reflect(Component)]

@@ -42,7 +42,7 @@ pub struct Cloth {
     /// Vertices held at a point fixed to another entity.
     pub attachments: Vec<VertexAttachment>,
     /// The entity the cloth is worn by or follows (a character): a jump of it past
-    /// [`DrapeSettings::teleport`] carries the cloth along rigidly, [`ClothSettings::inertia`]
+    /// [`DrapeSettings::teleport`](crate::schedule::DrapeSettings::teleport) carries the cloth along rigidly, [`ClothSettings::inertia`]
     /// scales how much of its world motion the cloth feels, and the cloth is drawn in its
     /// frame between fixed steps. Default: `None` (the cloth lives in the world alone).
     pub follow: Option<Entity>,
@@ -180,7 +180,7 @@ pub struct DefaultClothSettings(pub ClothSettings);
 
 /// The debug colours every cloth's mesh shows (vertex colours, multiplied with its
 /// material's colour; off shows the mesh's own vertex colours, or white). Default: off. While
-/// a per-triangle mode is on ([`DebugColorMode::AreaStrain`], a [`ClothPaint`] per triangle)
+/// a per-triangle mode is on ([`DebugColorMode::AreaStrain`], a [`ClothPaint`](crate::cloth::ClothPaint) per triangle)
 /// the mesh is drawn with one vertex per triangle corner, so each triangle has one flat
 /// colour; the shared mesh comes back when the mode goes off.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
@@ -215,7 +215,7 @@ pub struct ClothSimulation {
     pub(super) base_colors: Vec<[f32; 4]>,
     /// Whether the mesh is drawn with a vertex per triangle corner (per-triangle colours).
     pub(super) flat: FlatLayout,
-    /// Whether a [`ClothPaint`] of the wrong length was reported (until it fits again).
+    /// Whether a [`ClothPaint`](crate::cloth::ClothPaint) of the wrong length was reported (until it fits again).
     pub(super) warned_paint: bool,
     /// The colliders this cloth meets in a step (the world's and its own planes).
     pub(super) colliders: Vec<SolverCollider>,

@@ -1,5 +1,5 @@
 //! The Bevy side of the cloth: components, resources and the thin systems that build, step and
-//! draw [`ClothSolver`]s.
+//! draw [`ClothSolver`](crate::cloth::ClothSolver)s.
 
 mod components;
 mod spawn;

@@ -57,10 +57,10 @@ pub struct Skeleton {
 }
 
 /// Collision proxies for the cloth on a character's bones, by bone name: each proxy becomes a
-/// [`ClothCollider`] capsule (or sphere) on a child entity of its bone, moving with it.
+/// [`ClothCollider`](crate::collide::plugin::ClothCollider) capsule (or sphere) on a child entity of its bone, moving with it.
 ///
 /// - With a [`Skeleton`] on the same entity, the bones are the rig's: the proxies are spawned
-///   with the bone entities and take their velocity from the joints' ([`AnimatedVelocity`]).
+///   with the bone entities and take their velocity from the joints' ([`AnimatedVelocity`](crate::collide::plugin::AnimatedVelocity)).
 /// - On any other entity (the root of a glTF scene animated by Bevy's `AnimationPlayer`, a
 ///   hierarchy of your own), a proxy's bone is the first descendant whose [`Name`] is the
 ///   proxy's bone name. The proxies are attached as soon as a descendant has one of the names
@@ -266,7 +266,7 @@ pub enum IkTarget {
 }
 
 /// Inverse kinematics on a [`Skeleton`]: the goals are solved in order in
-/// [`DrapeSystems::InverseKinematics`], after the clip, before the colliders. The hinge rates
+/// [`DrapeSystems::InverseKinematics`](crate::schedule::DrapeSystems::InverseKinematics), after the clip, before the colliders. The hinge rates
 /// of the bones it moves (for the colliders' velocities) are the rates of the solved angles
 /// at this step, from a second-order one-sided difference of the last three solves. Each solve
 /// starts from the goal's last solution without restarts, and the angles move towards it at
