@@ -90,6 +90,7 @@ pub struct Skeleton {
 /// #     app
 /// # }
 /// # use std::sync::Arc;
+/// # use bevy_drape::skeleton::plugin::BoneProxyOf;
 /// let mut app = headless();
 /// // Slimmer arms than the humanoid's, and more friction on every proxy.
 /// let mut colliders = BoneColliders::humanoid();
