@@ -2,15 +2,19 @@
 //! written as a skinned model with its walk, `cargo run --example generate_character`) is
 //! loaded as a scene and animated by Bevy's `AnimationPlayer`, like any model from a file.
 //! `BoneColliders::humanoid()` on the scene's root attaches capsules to its joints by name;
-//! the poncho is worn by the root, which walks through the world.
+//! the poncho is worn by the root, which walks through the world and, as in the main scene,
+//! waves its right hand by inverse kinematics on the file's joints (raised between 2 s and 6 s
+//! of every 8 s).
 //!
 //! ```text
 //! cargo run --release --features render --example gltf_character
 //! ```
 //!
-//! `setup` and `put_on_poncho` below spawn the character and its poncho with the crate's API;
-//! playing the file's walk and moving the character through the world (a game's controller)
-//! come from the measuring harness (`drape_scenes::gltf_character::GltfWalkPlugin`).
+//! `setup` and `put_on_poncho` below spawn the character, its IK goal and its poncho with the
+//! crate's API; giving the `GltfCharacter` the file's scene and playing its walk (from one load
+//! of the file), moving the character through the world and moving the wave's target and
+//! weight (a game's controller) come from the measuring harness
+//! (`drape_scenes::gltf_character::GltfWalkPlugin`, which waves every `Waving` entity).
 //!
 //! R resets the poncho; orbit with the right mouse button, scroll to zoom. With no display it
 //! renders a few PNG frames offscreen; with no graphics adapter it runs the scene headless and
@@ -18,18 +22,17 @@
 
 mod common;
 
-use bevy::gltf::GltfAssetLabel;
 use bevy::prelude::*;
-use bevy::world_serialization::WorldAssetRoot;
 use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
+use bevy_drape::skeleton::ik::JointLimits;
 use bevy_drape::skeleton::plugin::BoneProxyOf;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
 use common::{ExamplePlugin, cloth_material, follow_with_camera, spawn_stage};
 use drape_scenes::gltf_character::{
     GltfCharacter, GltfCharacterScene, GltfWalkPlugin, walk_controller,
 };
-use drape_scenes::poncho::{CharacterMotion, Poncho};
+use drape_scenes::poncho::{CharacterMotion, Poncho, WRIST, Waving, wave_at};
 
 fn main() {
     if let Err(reason) = find_graphics_adapter() {
@@ -88,13 +91,14 @@ fn run_headless() {
     println!("character at {character:?}, poncho centroid at {centroid:?}");
 }
 
-/// The stage, a ground collider, and the character: the glTF scene, capsule proxies on its
-/// joints found by name, and its animation stepped with the cloth.
+/// The stage, a ground collider, and the character: the glTF scene (given by `GltfWalkPlugin`
+/// once the file has loaded), capsule proxies on its
+/// joints found by name, its animation stepped with the cloth, and the wave's IK goal on its
+/// right arm.
 fn setup(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
-    server: Res<AssetServer>,
 ) {
     spawn_stage(
         &mut commands,
@@ -111,12 +115,34 @@ fn setup(
     commands.spawn((
         Name::new("character"),
         GltfCharacter,
-        WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset("characters/humanoid.glb"))),
         BoneColliders::humanoid(),
         FixedStepAnimation,
         walk_controller(CharacterMotion::Tour),
+        wave_goal(),
+        Waving,
         Transform::default(),
     ));
+}
+
+/// The wave: the right wrist on a target in the character's frame, on the file's joints found
+/// by name. Each joint is a ball joint: `upper_arm_r` is the whole shoulder (the file's
+/// `shoulder_r` is a node at the same point), the elbow a hinge about its x axis. The weight
+/// and target are moved by the harness's wave (`drape_scenes::poncho::wave_at`).
+fn wave_goal() -> InverseKinematics {
+    InverseKinematics {
+        goals: vec![IkGoal {
+            end_bone: "forearm_r".into(),
+            length: 2,
+            effector: WRIST,
+            target: IkTarget::CharacterPoint(wave_at(0.0).1),
+            settings: IkSettings::default(),
+            weight: 0.0,
+            max_speed: IkGoal::DEFAULT_MAX_SPEED,
+            // From the end joint up: the elbow bends one way only; the shoulder is free.
+            joint_limits: vec![JointLimits::hinge_x(-2.5, 0.0)],
+        }],
+        results: Vec::new(),
+    }
 }
 
 /// Puts the poncho on the character once its proxies are on its joints (the scene has spawned),

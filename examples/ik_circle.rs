@@ -79,6 +79,7 @@ fn setup(
                 settings: IkSettings::default(),
                 weight: 1.0,
                 max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                joint_limits: Vec::new(),
             }],
             results: Vec::new(),
         },

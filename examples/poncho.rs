@@ -136,6 +136,7 @@ fn spawn_character_and_poncho(
                     settings: IkSettings::default(),
                     weight: 0.0,
                     max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                    joint_limits: Vec::new(),
                 }],
                 results: Vec::new(),
             },

@@ -5,7 +5,8 @@
 //!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--shear-compliance inf] [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
-//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport] [--inertia 1] [--neck-radius 0.1]
+//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport|tour|sprint|hop|set-off|turn-around|zigzag|carried]
+//!     [--inertia 1] [--speed-limit 2|none] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
 //!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20] [--no-exact-edges]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
@@ -13,8 +14,8 @@
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
-//! `drape_scenes::poncho::CharacterMotion`); `--inertia` is the poncho's
-//! `ClothSettings::inertia`; `--neck-radius` (or `--n`) makes the poncho from its pattern
+//! `drape_scenes::poncho::CharacterMotion`); `--inertia` and `--speed-limit` are the poncho's
+//! `ClothSettings::inertia` and `ClothSettings::speed_limit`; `--neck-radius` (or `--n`) makes the poncho from its pattern
 //! (`PonchoDesc`) instead of the shipped OBJ. The poncho is simulated on the coarse pattern
 //! (`meshes/poncho_coarse.obj`, `ClothSimulationMesh`) and drawn with the fine one;
 //! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
@@ -66,6 +67,7 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy::math::Vec3;
+use bevy_drape::cloth::plugin::ClothSettings;
 use bevy_drape::cloth::{
     AdaptiveSubsteps, ExactEdges, Gusts, PonchoDesc, SolverMethod, SolverSettings,
 };
@@ -104,6 +106,7 @@ fn run() -> Result<(), String> {
     let mut wave = true;
     let mut motion = CharacterMotion::InPlace;
     let mut inertia = 1.0f32;
+    let mut speed_limit = ClothSettings::default().speed_limit;
     let mut wind_speed = 10.0f32;
     let mut gusts = 0.0f32;
     let mut neck_radius: Option<f32> = None;
@@ -156,10 +159,17 @@ fn run() -> Result<(), String> {
             "--motion" => {
                 let name = value()?;
                 motion = CharacterMotion::from_name(&name).ok_or(format!(
-                    "unknown motion {name} (in-place, walk, jog, teleport)"
+                    "unknown motion {name} (in-place, walk, jog, teleport, tour, sprint, hop, \
+                     set-off, turn-around, zigzag, carried)"
                 ))?;
             }
             "--inertia" => inertia = parse(&value()?)?,
+            "--speed-limit" => {
+                speed_limit = match value()?.as_str() {
+                    "none" => None,
+                    limit => Some(parse(limit)?),
+                }
+            }
             "--wind" => wind_speed = parse(&value()?)?,
             "--gusts" => gusts = parse(&value()?)?,
             "--neck-radius" => neck_radius = Some(parse(&value()?)?),
@@ -320,6 +330,7 @@ fn run() -> Result<(), String> {
                 wave,
                 motion,
                 inertia,
+                speed_limit,
                 ..PonchoScene::default()
             };
             // Drawn: the shipped OBJ, or the pattern with `--n` vertices and `--neck-radius`.

@@ -136,6 +136,10 @@ pub enum ColliderError {
     /// The collider's pose or velocity is NaN or infinite.
     #[error("the collider's transform or velocity is not finite")]
     NonFinitePose,
+    /// The collider's position or velocity is finite but beyond
+    /// [`MAX_COORDINATE`](crate::collide::MAX_COORDINATE).
+    #[error("the collider's position or velocity is beyond 1e6 (m, m/s or rad/s)")]
+    PoseOutOfRange,
     /// A triangle-mesh collider has no (non-degenerate) triangles.
     #[error("the collider mesh has no usable triangles")]
     EmptyMesh,

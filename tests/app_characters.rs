@@ -125,6 +125,7 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
         settings: IkSettings::default(),
         weight: 1.0,
         max_speed: IkGoal::DEFAULT_MAX_SPEED,
+        joint_limits: Vec::new(),
     };
     let character = app
         .world_mut()
@@ -248,4 +249,32 @@ fn bone_colliders_attach_by_name_to_any_hierarchy_once_it_is_there() {
     let again = proxies_of(&mut app);
     assert_eq!(again.len(), found.len());
     assert_eq!(again.iter().filter(|f| f.2 == 0.25).count(), 1);
+    // The scene spawned anew (its file reloaded): the old joints go with their proxies, and
+    // the proxies are attached to the new joints, none left over.
+    app.world_mut().entity_mut(pelvis).despawn();
+    app.update();
+    assert!(proxies_of(&mut app).is_empty());
+    let world = app.world_mut();
+    let new_pelvis = world
+        .spawn((Name::new("pelvis"), Transform::default(), ChildOf(root)))
+        .id();
+    let new_spine = world
+        .spawn((
+            Name::new("spine"),
+            Transform::default(),
+            ChildOf(new_pelvis),
+        ))
+        .id();
+    app.update();
+    let respawned = proxies_of(&mut app);
+    assert_eq!(respawned.len(), found.len(), "{respawned:?}");
+    assert!(
+        respawned
+            .iter()
+            .all(|f| (f.1 == new_pelvis) == (f.0 == "pelvis proxy") && f.1 != pelvis)
+    );
+    assert_eq!(
+        respawned.iter().filter(|f| f.1 == new_spine).count(),
+        found.len() - pelvis_proxies
+    );
 }

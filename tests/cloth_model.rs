@@ -363,3 +363,88 @@ fn pins_set_or_released_between_steps_hold_or_let_go() {
     let free_fall = 0.5 * GRAVITY.length() * (30.0 * DT).powi(2);
     assert!(fell > 0.5 * free_fall, "fell {fell} m");
 }
+
+#[test]
+fn finite_but_extreme_input_is_refused_and_the_state_stays_finite() {
+    use bevy_drape::cloth::{MAX_SPEED_CHANGE, MAX_STEP};
+    use bevy_drape::collide::{MAX_COORDINATE, RigidPose, SolverCollider, SolverShape};
+    use bevy_drape::error::ColliderError;
+    // Gravity, steps, pin targets and colliders drawn from every magnitude up to f32::MAX:
+    // each step runs and leaves a finite state, or the input is refused and changes nothing.
+    let scene = HangingCloth { n: 8 };
+    let mut sim = scene.build();
+    let pin = scene.pins()[0];
+    let mut rng = Rng(29);
+    let magnitude = |rng: &mut Rng| {
+        let sign = if rng.below(2) == 0 { -1.0 } else { 1.0 };
+        sign * 10f32.powf(rng.range(-3.0, 38.5)).min(f32::MAX)
+    };
+    let (mut refused, mut stepped) = (0, 0);
+    for _ in 0..400 {
+        let mut gravity = GRAVITY;
+        let mut dt = DT;
+        let value = magnitude(&mut rng);
+        let before = sim.state().clone();
+        let mut accepted = true;
+        match rng.below(4) {
+            0 => gravity = Vec3::new(0.0, value, 0.0),
+            1 => dt = value.abs(),
+            2 => {
+                let target = Vec3::new(value, 1.0, 0.0);
+                accepted = sim.set_pin_target(pin, target);
+                assert_eq!(
+                    accepted,
+                    value.abs() <= MAX_COORDINATE,
+                    "pin target {value}"
+                );
+            }
+            _ => {
+                let far = SolverCollider::fixed(
+                    SolverShape::Sphere { radius: 0.2 },
+                    RigidPose {
+                        translation: Vec3A::new(0.0, value, 0.0),
+                        ..RigidPose::IDENTITY
+                    },
+                );
+                let result = sim.set_colliders(&[far]);
+                accepted = result.is_ok();
+                if !accepted {
+                    assert_eq!(result, Err(ColliderError::PoseOutOfRange));
+                    assert!(value.abs() > MAX_COORDINATE);
+                }
+            }
+        }
+        match sim.step(&SolverSettings::default(), gravity, dt) {
+            Ok(()) => {
+                stepped += 1;
+                assert!(sim.is_finite(), "gravity {gravity}, dt {dt}");
+            }
+            Err(err) => {
+                refused += 1;
+                assert!(matches!(err, ClothError::InvalidSetting { .. }), "{err}");
+                let speed_change = gravity.length() * dt;
+                assert!(speed_change > MAX_SPEED_CHANGE || dt > MAX_STEP, "{err}");
+                assert_eq!(sim.state().positions, before.positions);
+                assert_eq!(sim.state().velocities, before.velocities);
+            }
+        }
+        if !accepted {
+            refused += 1;
+        }
+        // Back home for the next draw.
+        sim.set_pin_target(pin, sim.model().rest_positions[pin as usize]);
+        sim.set_colliders(&[]).unwrap();
+        if rng.below(20) == 0 {
+            sim.reset();
+        }
+    }
+    println!("{stepped} steps run, {refused} inputs refused");
+    assert!(stepped > 100 && refused > 100);
+    // Gravity 1e30 in particular.
+    let before = sim.state().clone();
+    assert!(
+        sim.step(&SolverSettings::default(), Vec3::new(0.0, -1e30, 0.0), DT)
+            .is_err()
+    );
+    assert_eq!(sim.state(), &before);
+}

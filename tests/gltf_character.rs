@@ -10,7 +10,9 @@
 //! - The poncho drapes on the character while it walks through the world: no particle deeper
 //!   in a proxy than the margin, finite, the centroid over the chest.
 
-use std::time::{Duration, Instant};
+mod common;
+
+use std::time::Duration;
 
 use bevy::animation::AnimationPlayer;
 use bevy::prelude::*;
@@ -22,6 +24,7 @@ use bevy_drape::skeleton::clip::{Clip, ClipDesc};
 use bevy_drape::skeleton::plugin::BoneProxyOf;
 use bevy_drape::skeleton::rig::Rig;
 use bevy_drape::skeleton::rig::{Pose, PoseRate};
+use common::{an_animation_plays, update_until_loaded};
 use drape_scenes::gltf_character::{GltfCharacter, GltfCharacterScene, headless_app};
 use drape_scenes::poncho::{CharacterController, CharacterMotion, Poncho};
 
@@ -41,33 +44,18 @@ fn the_character_file_is_what_the_generator_writes() {
 /// Updates with time standing still until the scene has spawned, its walk is playing and the
 /// poncho's mesh has loaded.
 fn wait_for_the_scene(app: &mut App) {
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        app.update();
-        let world = app.world_mut();
-        let playing = world
-            .query::<&AnimationPlayer>()
-            .iter(world)
-            .any(|p| p.playing_animations().next().is_some());
+    update_until_loaded(app, |world| {
         let meshes: Vec<AssetId<Mesh>> = world
             .query_filtered::<&Mesh3d, With<Poncho>>()
             .iter(world)
             .map(|m| m.0.id())
             .collect();
-        let loaded = !meshes.is_empty()
+        an_animation_plays(world)
+            && !meshes.is_empty()
             && meshes
                 .iter()
-                .all(|&id| world.resource::<Assets<Mesh>>().get(id).is_some());
-        if playing && loaded {
-            break;
-        }
-        assert!(Instant::now() < deadline, "the character did not load");
-        std::thread::sleep(Duration::from_millis(2));
-    }
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 60.0,
-    )));
+                .all(|&id| world.resource::<Assets<Mesh>>().get(id).is_some())
+    });
 }
 
 /// The world transform of the first entity named `name`.

@@ -1,7 +1,7 @@
 //! A cloth in the frame of a character that moves through the world: carried rigidly with no
 //! inertia and left where it is with full inertia, feeling its inertia's share of the frame's
 //! motion and keeping it when the frame stops, taken along by a teleport and drawn on the
-//! character. The characters' proxy velocities are in `tests/moving_character_velocities.rs`.
+//! character, its speed relative to the frame limited. The characters' proxy velocities are in `tests/moving_character_velocities.rs`.
 
 mod common;
 
@@ -203,4 +203,71 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
     }
     let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
     assert!(sim.is_finite() && sim.strain().max < 0.05);
+}
+
+#[test]
+fn the_speed_limit_cuts_each_particles_speed_relative_to_its_frame_and_nothing_else() {
+    use bevy::math::Vec3A;
+    use bevy_drape::collide::{FrameTracker, RigidPose};
+    use common::Rng;
+    let dt = 1.0 / 60.0;
+    let mut rng = Rng(41);
+    for seed in 30..36 {
+        let mover = Mover::random(seed, true);
+        let pose_at = |t: f32| {
+            let t = mover.transform_at(t);
+            RigidPose {
+                translation: t.translation.into(),
+                rotation: t.rotation,
+            }
+        };
+        let mut tracker = FrameTracker::default();
+        let t0 = rng.range(0.5, 3.0);
+        tracker.step(pose_at(t0 - dt), dt, None);
+        let frame = tracker.step(pose_at(t0), dt, None);
+        let inertia = [1.0, 0.5, 0.0][rng.below(3)];
+        let limit = rng.range(0.5, 4.0);
+        let grid = GridDesc::square(0.5, 6, Vec3::new(-0.25, 1.0, -0.25));
+        let mut sim = ClothSolver::new(ClothModel::grid(&grid, 0.1).unwrap());
+        sim.set_pins(&[0]).unwrap();
+        for v in sim.state_mut().velocities.iter_mut() {
+            *v = Vec3A::from(rng.vec3(-8.0, 8.0));
+        }
+        sim.follow_frame(&frame, inertia);
+        let before = sim.state().clone();
+        sim.limit_speed_relative_to(&frame, limit);
+        let after = sim.state();
+        // The frame's velocity field as the cloth feels it: its inertia's share.
+        let (mut cut, mut kept) = (0, 0);
+        for i in 0..after.len() {
+            let p = before.positions[i];
+            let body = (frame.linear_velocity
+                + frame.angular_velocity.cross(p - frame.end.translation))
+                * inertia;
+            let (v0, v1) = (before.velocities[i], after.velocities[i]);
+            let relative = v0 - body;
+            if i == 0 || relative.length() <= limit {
+                // Pinned, or within the limit: untouched.
+                assert_eq!(v1, v0, "seed {seed}, particle {i}");
+                kept += 1;
+            } else if inertia == 0.0 {
+                // With no inertia the cloth feels none of the frame's motion: nothing to cut.
+                assert_eq!(v1, v0);
+                kept += 1;
+            } else {
+                let new = v1 - body;
+                assert!(
+                    (new.length() - limit).abs() < 1e-4 * limit.max(1.0),
+                    "{new}"
+                );
+                assert!(new.normalize().dot(relative.normalize()) > 0.9999);
+                cut += 1;
+            }
+        }
+        assert!(
+            kept > 0 && (cut > 0 || inertia == 0.0),
+            "seed {seed}: {cut} cut, {kept} kept"
+        );
+        assert_eq!(after.positions, before.positions);
+    }
 }

@@ -125,6 +125,7 @@ fn run(case: &Case, mover_at: MoverAt, steps: usize) -> Vec<Track> {
                     },
                     weight: 1.0,
                     max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                    joint_limits: Vec::new(),
                 }],
                 results: Vec::new(),
             },

@@ -47,7 +47,9 @@ pub use settings::{
 };
 pub(crate) use sim::SubstepCoupling;
 pub use sim::diagnostics::{Divergence, StrainStats};
-pub use sim::{ClothSolver, Join, OneThread, Pin, StepTimings, with_helper};
+pub use sim::{
+    ClothSolver, Join, MAX_SPEED_CHANGE, MAX_STEP, OneThread, Pin, StepTimings, with_helper,
+};
 pub use state::ClothState;
 pub use volume::VolumeSettings;
 

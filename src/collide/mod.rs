@@ -19,5 +19,5 @@ pub(crate) mod thin;
 pub(crate) mod trimesh;
 
 pub use motion::{FrameStep, FrameTracker, Teleport};
-pub use shapes::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
+pub use shapes::{ContactMaterial, MAX_COORDINATE, RigidPose, SolverCollider, SolverShape};
 pub use trimesh::TriMesh;

@@ -8,6 +8,11 @@ use bevy::math::{Quat, Vec3A};
 use super::trimesh::{Aabb, TriMesh, mesh_distance};
 use crate::error::ColliderError;
 
+/// The largest coordinate the solvers take, metres (and the largest collider speed, m/s and
+/// rad/s): 1e6, where `f32` still resolves 6 cm. A pin target or collider beyond it is
+/// refused, so that no distance's square overflows.
+pub const MAX_COORDINATE: f32 = 1.0e6;
+
 /// A rigid pose: rotation, then translation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidPose {
@@ -387,6 +392,15 @@ impl SolverCollider {
             && self.angular_velocity.is_finite())
         {
             return Err(ColliderError::NonFinitePose);
+        }
+        // Finite but extreme: the contact distances' squares would overflow.
+        let far = |p: &RigidPose| p.translation.abs().max_element() > MAX_COORDINATE;
+        if far(&self.start)
+            || far(&self.end)
+            || self.linear_velocity.abs().max_element() > MAX_COORDINATE
+            || self.angular_velocity.abs().max_element() > MAX_COORDINATE
+        {
+            return Err(ColliderError::PoseOutOfRange);
         }
         Ok(())
     }

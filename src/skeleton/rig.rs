@@ -225,6 +225,17 @@ impl Rig {
         &self.bones
     }
 
+    /// Sets where `bone` hangs from its parent (a rig standing for a hierarchy whose joints
+    /// move, as a [`BallChain`](super::ik::BallChain) does); a non-finite offset or a bone
+    /// that is not there is ignored.
+    pub(crate) fn set_offset(&mut self, bone: usize, offset: Vec3) {
+        if let Some(b) = self.bones.get_mut(bone)
+            && offset.is_finite()
+        {
+            b.offset = offset;
+        }
+    }
+
     /// The index of the bone named `name`.
     pub fn find(&self, name: &str) -> Option<usize> {
         self.bones.iter().position(|b| b.name == name)

@@ -4,7 +4,7 @@
 // Every test file uses only some of these items.
 #![allow(dead_code, unused_imports)]
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use bevy::app::Plugins;
 use bevy::asset::AssetPlugin;
@@ -20,6 +20,32 @@ use bevy_drape::prelude::*;
 pub(crate) use bevy_drape::rng::Rng;
 
 pub(crate) mod moving;
+
+/// Updates `app` with time standing still until `ready` (a scene file loaded, its animation
+/// playing), at most 60 s of wall time, then lets time run at 1/60 s per update.
+pub(crate) fn update_until_loaded(app: &mut App, mut ready: impl FnMut(&mut World) -> bool) {
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        app.update();
+        if ready(app.world_mut()) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "the scene did not load");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+}
+
+/// Whether any `AnimationPlayer` in `world` is playing an animation.
+pub(crate) fn an_animation_plays(world: &mut World) -> bool {
+    world
+        .query::<&AnimationPlayer>()
+        .iter(world)
+        .any(|p| p.playing_animations().next().is_some())
+}
 
 /// A free 1 m square of `n` x `n` particles, 0.1 kg/m², flat at 2 m, centred on the Y axis.
 pub(crate) fn free_grid(n: u32) -> ClothSolver {

@@ -5,12 +5,13 @@
 //! player is stepped with the cloth. A [`CharacterController`] moves the scene's root through the world and sets the
 //! animation's speed so the feet do not skate.
 //!
-//! [`GltfCharacterPlugin`] spawns everything but what is drawn; the `gltf_character` example
+//! [`GltfWalkPlugin`] gives each [`GltfCharacter`] the file's scene and plays its walk, from one
+//! load of the file. [`GltfCharacterPlugin`] spawns everything but what is drawn; the `gltf_character` example
 //! adds the camera and materials, [`headless_app`] runs it with `MinimalPlugins`.
 
 use bevy::animation::graph::{AnimationGraph, AnimationGraphHandle, AnimationNodeIndex};
 use bevy::animation::{AnimationClip, AnimationPlayer};
-use bevy::gltf::{Gltf, GltfAssetLabel};
+use bevy::gltf::Gltf;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
@@ -22,7 +23,7 @@ use bevy_drape::schedule::DrapeSystems;
 use bevy_drape::skeleton::clip::{Clip, ClipDesc};
 use bevy_drape::skeleton::plugin::{BoneColliders, BoneProxyOf};
 
-use crate::poncho::{CharacterController, CharacterMotion, Poncho};
+use crate::poncho::{CharacterController, CharacterMotion, Poncho, WavePlugin};
 
 /// The character's file in the assets folder.
 pub const CHARACTER_FILE: &str = "characters/humanoid.glb";
@@ -49,7 +50,7 @@ impl Default for GltfCharacterScene {
 }
 
 /// Marks the root entity of the glTF character (the one with the scene, the colliders and the
-/// controller).
+/// controller); [`GltfWalkPlugin`] gives it the file's scene.
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct GltfCharacter;
 
@@ -81,14 +82,19 @@ impl Plugin for GltfCharacterPlugin {
 
 /// The motion of every [`GltfCharacter`]: plays the file's `walk` animation on the players of
 /// its scene and moves it by its [`CharacterController`] (the animation's speed following the
-/// character's, so the feet do not skate); what a game's controller does, not the crate's.
+/// character's, so the feet do not skate), and waves the right hand of a
+/// [`Waving`](crate::poncho::Waving) one by IK ([`WavePlugin`]); what a game's controller
+/// does, not the crate's.
 #[derive(Default)]
 pub struct GltfWalkPlugin;
 
 impl Plugin for GltfWalkPlugin {
     fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<WavePlugin>() {
+            app.add_plugins(WavePlugin);
+        }
         app.add_systems(Startup, load_walk)
-            .add_systems(Update, play_walk)
+            .add_systems(Update, (give_scenes, play_walk))
             .add_systems(FixedUpdate, drive.before(DrapeSystems::Prepare));
     }
 }
@@ -108,6 +114,29 @@ pub fn walk_controller(motion: CharacterMotion) -> CharacterController {
             .and_then(|desc| Clip::new(&desc, &rig).ok())
             .and_then(|clip| clip.stance_speed(&rig, &feet, Vec3::Z));
     controller
+}
+
+/// Gives every [`GltfCharacter`] without a scene the file's first scene, once the file has
+/// loaded: the scene and the walk come from one load of the file. (A second load of the same
+/// file, `GltfAssetLabel::Scene(0)` beside the whole file, parses it twice; the parse that
+/// finishes last counts as a change of the scene, and Bevy spawns the scene anew.)
+fn give_scenes(
+    mut commands: Commands,
+    walk: Option<Res<Walk>>,
+    files: Res<Assets<Gltf>>,
+    characters: Query<Entity, (With<GltfCharacter>, Without<WorldAssetRoot>)>,
+) {
+    let Some(scene) = walk
+        .and_then(|walk| files.get(&walk.file))
+        .and_then(|file| file.scenes.first())
+    else {
+        return;
+    };
+    for character in &characters {
+        commands
+            .entity(character)
+            .insert(WorldAssetRoot(scene.clone()));
+    }
 }
 
 fn load_walk(mut commands: Commands, server: Res<AssetServer>) {
@@ -146,13 +175,12 @@ pub fn headless_app(scene: GltfCharacterScene) -> App {
     app
 }
 
-fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>, server: Res<AssetServer>) {
+fn spawn(mut commands: Commands, scene: Res<GltfCharacterScene>) {
     let controller = walk_controller(scene.motion);
     for k in 0..scene.characters {
         commands.spawn((
             Name::new(format!("character {k}")),
             GltfCharacter,
-            WorldAssetRoot(server.load(GltfAssetLabel::Scene(0).from_asset(CHARACTER_FILE))),
             BoneColliders::humanoid(),
             // Its animation stepped with the cloth, not once per rendered frame.
             FixedStepAnimation,

@@ -125,6 +125,11 @@ pub struct ClothSettings {
     /// joints' motion, gravity and its colliders); in between scales the inertia of walking,
     /// turning and stopping. Default: `1.0`.
     pub inertia: f32,
+    /// The largest speed of a particle relative to the followed entity ([`Cloth::follow`]),
+    /// m/s: beyond it a particle's speed relative to the entity's motion is cut at each fixed
+    /// step (`ClothSolver::limit_speed_relative_to`), so a character that stops dead, turns
+    /// round or lands keeps its cloth on. `None`: no limit. Default: `Some(`[`ClothSettings::DEFAULT_SPEED_LIMIT`]`)`.
+    pub speed_limit: Option<f32>,
     /// Whether the cloth feels the [`Wind`](crate::cloth::wind_plugin::Wind) and every
     /// [`WindSource`](crate::cloth::wind_plugin::WindSource). While any blows, a cloth whose
     /// [`SolverSettings::air`] is `None` meets the air with the default [`AirSettings`]; with
@@ -144,8 +149,14 @@ impl Default for ClothSettings {
             divergence: DivergenceBounds::default(),
             on_divergence: OnDivergence::Freeze,
             inertia: 1.0,
+            speed_limit: Some(Self::DEFAULT_SPEED_LIMIT),
         }
     }
+}
+
+impl ClothSettings {
+    /// The default [`ClothSettings::speed_limit`], m/s.
+    pub const DEFAULT_SPEED_LIMIT: f32 = 2.0;
 }
 
 /// What happens to a cloth that diverges. Either way a [`ClothDiverged`] message is sent and

@@ -262,6 +262,9 @@ fn step_cloth<C: ClothCoupling>(
                     .follow
                     .step(pose, dt, context.drape.teleport.as_ref());
                 sim.follow_frame(&frame, settings.inertia);
+                if let Some(limit) = settings.speed_limit {
+                    sim.limit_speed_relative_to(&frame, limit);
+                }
                 simulation.followed = Some(frame);
                 simulation.warned_follow = false;
             }

@@ -81,6 +81,49 @@ impl ClothSolver {
         }
     }
 
+    /// Limits every free particle's speed relative to the frame it follows to `max_speed`,
+    /// m/s: the part of its velocity beyond the frame's velocity field at the particle
+    /// (`v + omega x r`, the share the cloth feels after [`ClothSolver::follow_frame`]) is
+    /// shortened to `max_speed`, its direction kept. A character that stops dead, turns round
+    /// or lands from a hop then takes its cloth with it instead of throwing it off: the kinetic
+    /// energy beyond the limit is taken out, as game engines' cloth does (a movement speed
+    /// limit). Call after [`ClothSolver::follow_frame`]; a limit that is not a positive finite
+    /// number, or a frame that is not finite, leaves the cloth as it is.
+    pub fn limit_speed_relative_to(&mut self, frame: &FrameStep, max_speed: f32) {
+        if !(max_speed.is_finite() && max_speed > 0.0) {
+            return;
+        }
+        if !(frame.linear_velocity.is_finite()
+            && frame.angular_velocity.is_finite()
+            && frame.end.translation.is_finite())
+        {
+            return;
+        }
+        // Velocities are relative to the carried share of the frame's motion.
+        let felt = self.carried.map_or(1.0, |(_, s)| 1.0 - s);
+        if felt <= 0.0 {
+            return;
+        }
+        let state = &mut self.state;
+        let max_sq = max_speed * max_speed;
+        for ((v, &p), &w) in state
+            .velocities
+            .iter_mut()
+            .zip(&state.positions)
+            .zip(&state.inverse_masses)
+        {
+            if w == 0.0 {
+                continue;
+            }
+            let body = frame.velocity_at(p) * felt;
+            let relative = *v - body;
+            let sq = relative.length_squared();
+            if sq > max_sq {
+                *v = body + relative * (max_speed / sq.sqrt());
+            }
+        }
+    }
+
     /// The colliders.
     pub fn colliders(&self) -> &[SolverCollider] {
         &self.colliders

@@ -68,6 +68,15 @@ struct SpringScratch {
     lambdas: Vec<f32>,
 }
 
+/// The largest velocity change one [`ClothSolver::step`] takes from its acceleration,
+/// `|acceleration| * dt`, m/s: 1e4 m/s, a thousand g for a whole second. A larger one (a
+/// gravity of 1e30) is refused with a [`ClothError`].
+pub const MAX_SPEED_CHANGE: f32 = 1.0e4;
+
+/// The longest step [`ClothSolver::step`] takes, s; a longer one is refused with a
+/// [`ClothError`].
+pub const MAX_STEP: f32 = 10.0;
+
 /// One simulated cloth: its [`ClothModel`], its [`ClothState`], its pins and the solver's
 /// scratch memory. [`ClothSolver::step`] advances it by one fixed step without allocating.
 #[derive(Clone, Debug)]
@@ -360,8 +369,9 @@ impl ClothSolver {
     /// integrate the spring forces with symplectic Euler.
     ///
     /// Bad input is refused, not stepped, so that nothing non-finite reaches the state: settings
-    /// out of range ([`SolverSettings::validate`]), a non-finite acceleration, or a negative or
-    /// non-finite `dt` return the error and leave the cloth as it was; `dt = 0` does nothing.
+    /// out of range ([`SolverSettings::validate`]), a non-finite acceleration, a negative or
+    /// non-finite `dt`, or finite ones too large to step ([`MAX_SPEED_CHANGE`], [`MAX_STEP`])
+    /// return the error and leave the cloth as it was; `dt = 0` does nothing.
     ///
     /// One thread; [`ClothSolver::step_with`] splits a large cloth over two.
     pub fn step(
@@ -418,6 +428,23 @@ impl ClothSolver {
         }
         if dt == 0.0 {
             return Ok(());
+        }
+        // A finite but extreme acceleration or step (gravity 1e30) would overflow the
+        // positions' squares within the step: refused like a non-finite one.
+        let speed_change = acceleration.length() * dt;
+        if speed_change.is_nan() || speed_change > MAX_SPEED_CHANGE {
+            return Err(ClothError::InvalidSetting {
+                name: "acceleration * dt",
+                value: speed_change,
+                reason: "at most MAX_SPEED_CHANGE (1e4 m/s in one step)",
+            });
+        }
+        if dt > MAX_STEP {
+            return Err(ClothError::InvalidSetting {
+                name: "dt",
+                value: dt,
+                reason: "at most MAX_STEP (10 s)",
+            });
         }
         if settings.volume.is_some() && self.volume.is_none() {
             self.volume = Some(VolumeConstraint::new(&self.model));

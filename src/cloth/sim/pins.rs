@@ -118,9 +118,9 @@ impl ClothSolver {
 
     /// Sets where pinned particle `particle` must be at the end of the next step; it moves
     /// there along a straight line over the substeps. Returns `false` if it is not pinned or
-    /// the target is not finite.
+    /// the target is not finite or beyond [`MAX_COORDINATE`](crate::collide::MAX_COORDINATE).
     pub fn set_pin_target(&mut self, particle: u32, target: Vec3) -> bool {
-        if !target.is_finite() {
+        if !(target.is_finite() && target.abs().max_element() <= crate::collide::MAX_COORDINATE) {
             return false;
         }
         match self.pins.binary_search_by_key(&particle, |p| p.particle) {

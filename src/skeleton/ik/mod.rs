@@ -44,6 +44,11 @@ use bevy::reflect::Reflect;
 
 use super::rig::{Pose, Rig};
 
+mod ball;
+
+pub(crate) use ball::BallTracking;
+pub use ball::{BallChain, JointLimits};
+
 /// Why a chain cannot be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IkError {
@@ -61,6 +66,9 @@ pub enum IkError {
     /// The effector offset or the target is not finite.
     #[error("the effector or the target is not finite")]
     NonFinite,
+    /// A joint's [`JointLimits`] are not finite and ordered (min <= max).
+    #[error("joint {0} of the chain has limits that are not finite and ordered (min <= max)")]
+    BadLimits(usize),
 }
 
 /// A chain of hinge bones with an effector on its last bone.
@@ -217,6 +225,22 @@ pub fn solve(
     settings: &IkSettings,
     scratch: &mut IkScratch,
 ) -> IkResult {
+    solve_with(rig, chain, pose, target, settings, scratch, true)
+}
+
+/// [`solve`], with the FABRIK pass and sweep (steps 1 to 3) only if `swing`: without them
+/// the solve is damped least squares from the angles in `pose` alone, which stays with the
+/// nearby solution (tracking a target from the last step's solution; a FABRIK pass sets
+/// every angle afresh and may land on another solution).
+pub(crate) fn solve_with(
+    rig: &Rig,
+    chain: &IkChain,
+    pose: &mut Pose,
+    target: Vec3,
+    settings: &IkSettings,
+    scratch: &mut IkScratch,
+    swing: bool,
+) -> IkResult {
     let n = chain.bones.len();
     let bones = rig.bones();
     let IkScratch {
@@ -278,7 +302,7 @@ pub fn solve(
             }
         }
     };
-    if iterations < settings.max_iterations && best_error > settings.tolerance {
+    if swing && iterations < settings.max_iterations && best_error > settings.tolerance {
         // 1.-3. One FABRIK pass and sweep: the chain swings toward the target as a whole.
         iterations += 1;
         fabrik_pass(

@@ -13,7 +13,8 @@ use crate::files::{FileValue, FromFile};
 use crate::skeleton::clip::{Clip, ClipDesc, ClipError};
 use crate::skeleton::humanoid::{BoneProxy, humanoid_proxies};
 use crate::skeleton::ik::{
-    AngleRates, IkChain, IkError, IkResult, IkScratch, IkSettings, IkTracking,
+    AngleRates, BallChain, BallTracking, IkChain, IkError, IkResult, IkScratch, IkSettings,
+    IkTracking, JointLimits,
 };
 use crate::skeleton::rig::{BoneState, Pose, PoseRate, Rig};
 
@@ -228,10 +229,19 @@ pub struct SkeletonPose {
 }
 
 /// One IK goal of a character: a chain, where its effector should be, and how much IK
-/// overrides the keyframes.
+/// overrides the animation. It works on both kinds of character (see [`InverseKinematics`]):
+///
+/// - on a [`Skeleton`], the chain is `end_bone` and its `length - 1` nearest ancestors in the
+///   rig, each bone one hinge (the rig's axis and limits; the humanoid's shoulder is two
+///   bones, so its arm is `length: 3`);
+/// - on any other entity (a glTF scene's root), the chain is the first descendant whose
+///   [`Name`] is `end_bone` and its `length - 1` nearest ancestors, each a ball joint turning
+///   about its local x, y and z axes within [`IkGoal::joint_limits`] (the glTF humanoid's
+///   shoulder is two nodes at one point, so one ball joint, `upper_arm_r`, is the whole
+///   shoulder and its arm is `length: 2`).
 #[derive(Clone, Debug, PartialEq, Reflect)]
 pub struct IkGoal {
-    /// The chain's last bone.
+    /// The chain's last bone (joint).
     pub end_bone: String,
     /// How many bones the chain has (the end bone and its nearest ancestors).
     pub length: usize,
@@ -241,13 +251,19 @@ pub struct IkGoal {
     pub target: IkTarget,
     /// Tolerance and iteration cap.
     pub settings: IkSettings,
-    /// 0 keeps the keyframed angles, 1 the IK ones; in between blends them.
+    /// 0 keeps the animated pose (the clip's angles, the joints' animated rotations), 1 the
+    /// IK one; in between blends them.
     pub weight: f32,
     /// The fastest the IK angles may turn, rad/s: each step they move towards the solution
     /// by at most this much, so a target that jumps, or a solve that lands on another
     /// solution, moves the limb instead of teleporting it through the cloth. Default in
     /// [`IkGoal::DEFAULT_MAX_SPEED`].
     pub max_speed: f32,
+    /// On a character without a [`Skeleton`]: the limits of the chain's ball joints, from the
+    /// end bone up (`[0]` the end bone's, `[1]` its parent's, ...); a joint without an entry
+    /// is free ([`JointLimits::FREE`]). Ignored on a `Skeleton`, whose bones have the rig's
+    /// limits.
+    pub joint_limits: Vec<JointLimits>,
 }
 
 impl IkGoal {
@@ -266,12 +282,30 @@ pub enum IkTarget {
     Entity(Entity),
 }
 
-/// Inverse kinematics on a [`Skeleton`]: the goals are solved in order in
-/// [`DrapeSystems::InverseKinematics`](crate::schedule::DrapeSystems::InverseKinematics), after the clip, before the colliders. The hinge rates
-/// of the bones it moves (for the colliders' velocities) are the rates of the solved angles
-/// at this step, from a second-order one-sided difference of the last three solves. Each solve
-/// starts from the goal's last solution without restarts, and the angles move towards it at
-/// most [`IkGoal::max_speed`], so a limb follows its target continuously.
+/// Inverse kinematics on a character: the goals are solved in order in
+/// [`DrapeSystems::InverseKinematics`](crate::schedule::DrapeSystems::InverseKinematics), after the animation, before the colliders. It works on
+/// both kinds of character:
+///
+/// - **A [`Skeleton`]**: the goals turn the rig's hinges on top of the clip's pose. The hinge
+///   rates of the bones it moves (for the colliders' velocities) are the rates of the solved
+///   angles at this step, from a second-order one-sided difference of the last three solves.
+/// - **Any other entity** (the root of a glTF scene animated by Bevy's `AnimationPlayer`, with
+///   `FixedStepAnimation` so it is posed at each fixed step; a hierarchy of your own): a
+///   goal's chain is found by [`Name`] below the entity, each joint a ball joint
+///   ([`IkGoal::joint_limits`], modelled as in [`BallChain`](crate::skeleton::ik::BallChain)). It is solved from the joints'
+///   `Transform`s as the animation has posed them at this step, and the rotations, blended
+///   from the animated ones by [`IkGoal::weight`], are written into the joints' `Transform`s,
+///   so what hangs from them (the [`BoneColliders`] proxies, a skinned mesh) follows; a joint
+///   that nothing animates keeps its own rotation as the animated one. Between fixed steps the
+///   joints IK moves are drawn between their last two solved rotations (after Bevy's
+///   animation in `PostUpdate`), as the cloth is.
+///
+/// Each solve starts from the goal's last solution without restarts, and the angles move
+/// towards it at most [`IkGoal::max_speed`], so a limb follows its target continuously. A goal
+/// that cannot be solved (an end bone the character does not have, a chain longer than the
+/// bones above it, a target or weight that is not finite, bad limits) is skipped, its result
+/// `None`, with a warning naming the character and the bone (once, until it is solved again).
+/// `tests/gltf_ik.rs` checks the glTF humanoid's wrist on random targets while it walks.
 ///
 /// ```
 /// # use std::time::Duration;
@@ -309,6 +343,7 @@ pub enum IkTarget {
 ///                 settings: IkSettings::default(),
 ///                 weight: 1.0,
 ///                 max_speed: IkGoal::DEFAULT_MAX_SPEED,
+///                 joint_limits: Vec::new(), // the rig's own limits
 ///             }],
 ///             results: Vec::new(),
 ///         },
@@ -346,6 +381,59 @@ pub struct IkState {
     pub(super) rates: AngleRates,
     /// Each goal's last solution, where the next solve starts.
     pub(super) tracking: Vec<IkTracking>,
+    /// Each goal's chain of named joints, on a character without a [`Skeleton`].
+    pub(super) named: Vec<NamedChain>,
+}
+
+/// What a chain of named joints is built from: the end bone, the length, the limits.
+pub(super) type NamedKey = (String, usize, Vec<JointLimits>);
+
+/// Why a goal on named joints is skipped (each warned about once).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum NamedProblem {
+    /// The chain cannot be built (no joints, bad limits).
+    Chain,
+    /// No descendant has the end bone's name.
+    NoJoint,
+    /// The chain reaches above the character.
+    TooLong,
+    /// A joint's or the character's transform is not finite, or the effector is not.
+    Transform,
+    /// The target is not finite (or its entity has no transform).
+    Target,
+    /// The weight is not finite.
+    Weight,
+}
+
+/// A goal's chain of named joints, on a character without a [`Skeleton`].
+#[derive(Clone, Debug, Default)]
+pub(super) struct NamedChain {
+    /// What `ball` was built from.
+    pub(super) key: Option<NamedKey>,
+    /// The chain as ball joints.
+    pub(super) ball: Option<Result<BallChain, IkError>>,
+    /// The joints' entities, first to end (empty until found), and the first one's parent.
+    pub(super) joints: Vec<Entity>,
+    pub(super) base: Option<Entity>,
+    /// Per joint: what IK did to its rotation at the last fixed steps.
+    pub(super) written: Vec<WrittenJoint>,
+    /// The last solution, where the next solve starts.
+    pub(super) tracking: BallTracking,
+    /// The problem last warned about (cleared by a solve).
+    pub(super) warned: Option<NamedProblem>,
+}
+
+/// A joint's rotations as IK left them.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct WrittenJoint {
+    /// The animated rotation at the last fixed step (before IK).
+    pub(super) animated: Quat,
+    /// The rotation last written into its `Transform` (at a fixed step or drawn between).
+    pub(super) written: Quat,
+    /// The rotations written at the last two fixed steps, and whether IK moved it there
+    /// (a weight above 0).
+    pub(super) previous: (Quat, bool),
+    pub(super) current: (Quat, bool),
 }
 
 impl FileValue for BoneColliders {

@@ -9,9 +9,9 @@ use crate::collide::components::ClothCollider;
 use super::components::*;
 
 /// Marks an entity without a [`Skeleton`] whose [`BoneColliders`] have been attached to its
-/// descendants by name.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub(crate) struct ProxiesAttachedByName;
+/// descendants by name: the joints they hang from.
+#[derive(Component, Clone, Debug, Default)]
+pub(crate) struct ProxiesAttachedByName(Vec<Entity>);
 
 /// Spawns the collision proxies of `colliders` (of character `entity`) on the bone entities
 /// `bone` finds by name.
@@ -74,6 +74,29 @@ pub(super) fn respawn_changed_proxies(
     }
 }
 
+/// Lets the proxies of a character without a [`Skeleton`] be attached again when a joint they
+/// hung from is gone: a scene spawned again (its file reloaded, a second load of the same
+/// file finishing late) has new joint entities, and the old ones took their proxies with
+/// them. The proxies left are despawned, [`attach_proxies_by_name`] attaches them all anew.
+pub(super) fn detach_from_lost_joints(
+    mut commands: Commands,
+    characters: Query<(Entity, &ProxiesAttachedByName)>,
+    joints: Query<()>,
+    proxies: Query<(Entity, &BoneProxyOf)>,
+) {
+    for (entity, attached) in &characters {
+        if attached.0.iter().all(|&joint| joints.contains(joint)) {
+            continue;
+        }
+        for (proxy, of) in &proxies {
+            if of.0 == entity {
+                commands.entity(proxy).despawn();
+            }
+        }
+        commands.entity(entity).remove::<ProxiesAttachedByName>();
+    }
+}
+
 /// Attaches the [`BoneColliders`] of every entity without a [`Skeleton`] to its descendants
 /// by [`Name`], once one of them has a proxy's bone name (a scene spawns some frames after it
 /// is asked for). An entity whose descendants have none of the names is reported once.
@@ -114,6 +137,9 @@ pub(super) fn attach_proxies_by_name(
         spawn_proxies(&mut commands, entity, colliders, |name| {
             bones.iter().find(|(n, _)| *n == name).map(|&(_, e)| e)
         });
-        commands.entity(entity).insert(ProxiesAttachedByName);
+        let joints = bones.iter().map(|&(_, joint)| joint).collect();
+        commands
+            .entity(entity)
+            .insert(ProxiesAttachedByName(joints));
     }
 }

@@ -26,8 +26,10 @@ use bevy_drape::skeleton::plugin::{
     BoneColliders, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
 };
 
+mod motion;
 mod run;
 
+pub use motion::{CROWD_MOTIONS, CharacterController, CharacterMotion, SETTLE_SECONDS};
 pub use run::{LOAD_TIMEOUT, PonchoRun, STRAIN_BIN, headless_app, run_app, run_headless};
 
 /// Vertices per side of the coarse poncho the scene simulates (`meshes/poncho_coarse.obj`):
@@ -75,6 +77,8 @@ pub struct PonchoScene {
     pub motion: CharacterMotion,
     /// The poncho's [`ClothSettings::inertia`]. Default: `1.0`.
     pub inertia: f32,
+    /// The poncho's [`ClothSettings::speed_limit`]. Default: the cloth's default.
+    pub speed_limit: Option<f32>,
     /// Characters in ponchos, standing in a row along +X 4 m apart: the first makes
     /// `motion`, the others [`CROWD_MOTIONS`] in turn (the `crowd` scene). Default: `1`.
     pub characters: u32,
@@ -100,6 +104,7 @@ impl Default for PonchoScene {
             wave: true,
             motion: CharacterMotion::InPlace,
             inertia: 1.0,
+            speed_limit: ClothSettings::default().speed_limit,
             characters: 1,
             divergence: DivergenceBounds {
                 max_strain: 2.0,
@@ -119,225 +124,8 @@ pub struct Poncho;
 #[reflect(Component)]
 pub struct Character;
 
-/// How the scene's character moves through the world. Its entity is moved by
-/// [`CharacterController`] in `FixedUpdate`, as a game's character controller would, while the
-/// walk clip plays in place at the speed that matches the ground speed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
-pub enum CharacterMotion {
-    /// Walks on the spot (the clip alone).
-    #[default]
-    InPlace,
-    /// After standing for [`SETTLE_SECONDS`], walks a closed loop at 1.2 m/s: a straight, a
-    /// stop, a half turn to the left of 1 m radius, and back.
-    Walk,
-    /// After standing for [`SETTLE_SECONDS`], jogs 3 m/s straight ahead, stops, turns round
-    /// on the spot and jogs back.
-    Jog,
-    /// Walks on the spot; every 3 s after [`SETTLE_SECONDS`] jumps 10 m sideways and turns a
-    /// quarter turn in one step (a respawn), then back.
-    Teleport,
-    /// After standing for [`SETTLE_SECONDS`], a tour of all of it: walks, stops, turns left,
-    /// walks, turns left, jogs and stops, then the same again, which brings it back.
-    Tour,
-}
-
-impl CharacterMotion {
-    /// Every motion, in the order the `poncho` example's keys cycle them.
-    pub const ALL: [Self; 5] = [
-        Self::InPlace,
-        Self::Walk,
-        Self::Jog,
-        Self::Teleport,
-        Self::Tour,
-    ];
-
-    /// Its name on the command line (`in-place`, `walk`, `jog`, `teleport`).
-    pub fn name(&self) -> &'static str {
-        match self {
-            Self::InPlace => "in-place",
-            Self::Walk => "walk",
-            Self::Jog => "jog",
-            Self::Teleport => "teleport",
-            Self::Tour => "tour",
-        }
-    }
-
-    /// The motion named `name` (see [`CharacterMotion::name`]).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// The controller's script: legs of (seconds, speed m/s, turn rate rad/s), looped. Each
-    /// script turns the character by half a turn in all, so running it twice brings the
-    /// character back to where it started.
-    fn legs(&self) -> &'static [Leg] {
-        use std::f32::consts::PI;
-        const fn leg(seconds: f32, speed: f32, turn_rate: f32) -> Leg {
-            Leg {
-                seconds,
-                speed,
-                turn_rate,
-            }
-        }
-        // A half turn of 1 m radius at 1.2 m/s takes pi / 1.2 s.
-        const WALK_TURN: f32 = PI / 1.2;
-        const WALK: [Leg; 8] = [
-            leg(1.5, 1.2, 0.0),
-            leg(1.5, 0.0, 0.0),
-            leg(1.5, 1.2, 0.0),
-            leg(WALK_TURN, 1.2, 1.2),
-            leg(1.5, 1.2, 0.0),
-            leg(1.5, 0.0, 0.0),
-            leg(1.5, 1.2, 0.0),
-            leg(WALK_TURN, 1.2, 1.2),
-        ];
-        const JOG: [Leg; 4] = [
-            leg(2.5, 3.0, 0.0),
-            leg(1.0, 0.0, 0.0),
-            leg(1.0, 0.0, PI),
-            leg(0.3, 0.0, 0.0),
-        ];
-        // A quarter turn at 1.2 rad/s.
-        const QUARTER: f32 = PI / 2.0 / 1.2;
-        const TOUR: [Leg; 7] = [
-            leg(2.5, 1.2, 0.0),
-            leg(1.0, 0.0, 0.0),
-            leg(QUARTER, 1.2, 1.2),
-            leg(1.5, 1.2, 0.0),
-            leg(QUARTER, 1.2, 1.2),
-            leg(2.0, 3.0, 0.0),
-            leg(1.2, 0.0, 0.0),
-        ];
-        match self {
-            Self::InPlace | Self::Teleport => &[],
-            Self::Walk => &WALK,
-            Self::Jog => &JOG,
-            Self::Tour => &TOUR,
-        }
-    }
-}
-
-/// The motions of the characters after the first in a crowd ([`PonchoScene::characters`]),
-/// in turn.
-pub const CROWD_MOTIONS: [CharacterMotion; 4] = [
-    CharacterMotion::Walk,
-    CharacterMotion::Jog,
-    CharacterMotion::InPlace,
-    CharacterMotion::Teleport,
-];
-
 /// How far apart the characters of a crowd stand, metres.
 const CROWD_SPACING: f32 = 4.0;
-
-/// The character stands this long before it starts to move (walk, jog) or jump (teleport),
-/// so the poncho settles on it first, seconds.
-pub const SETTLE_SECONDS: f32 = 2.0;
-
-/// How fast the controller changes speed, m/s^2.
-const ACCELERATION: f32 = 4.0;
-
-/// One leg of a [`CharacterMotion`]'s script.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Leg {
-    seconds: f32,
-    speed: f32,
-    turn_rate: f32,
-}
-
-/// A stand-in for a game's character controller: moves the character entity's [`Transform`]
-/// every fixed step along its [`CharacterMotion`] (speed changed at 4 m/s^2 at most, turns at
-/// a set rate) and plays the walk clip at the speed that matches its ground speed
-/// ([`Clip::stance_speed`](bevy_drape::skeleton::clip::Clip::stance_speed)), so the feet do not
-/// skate.
-#[derive(Component, Clone, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-pub struct CharacterController {
-    /// The motion.
-    pub motion: CharacterMotion,
-    /// Seconds since the motion started.
-    pub time: f32,
-    /// Current ground speed, m/s.
-    pub speed: f32,
-    /// Heading, radians about +Y (0 faces +Z).
-    pub heading: f32,
-    /// Jumps made so far ([`CharacterMotion::Teleport`]).
-    pub jumps: u32,
-    /// The clip's no-skate ground speed at normal playback, m/s, once known.
-    pub stance_speed: Option<f32>,
-}
-
-impl CharacterController {
-    /// A controller for `motion`, starting at rest.
-    pub fn new(motion: CharacterMotion) -> Self {
-        Self {
-            motion,
-            time: 0.0,
-            speed: 0.0,
-            heading: 0.0,
-            jumps: 0,
-            stance_speed: None,
-        }
-    }
-
-    /// Switches to `motion` at once (no standing first); the character slows down or speeds
-    /// up from where it is.
-    pub fn switch_to(&mut self, motion: CharacterMotion) {
-        self.motion = motion;
-        self.time = SETTLE_SECONDS;
-        self.jumps = 0;
-    }
-
-    /// Advances the controller by `dt` and moves `transform` (translation in the ground
-    /// plane, heading about +Y). Returns the clip playback speed for the new ground speed.
-    pub fn advance(&mut self, dt: f32, transform: &mut Transform) -> f32 {
-        self.time += dt;
-        let moving = self.time - SETTLE_SECONDS;
-        if self.motion == CharacterMotion::Teleport {
-            let jumps = (moving / 3.0).floor().max(0.0) as u32;
-            if jumps > self.jumps {
-                self.jumps = jumps;
-                let sign = if jumps % 2 == 1 { 1.0 } else { -1.0 };
-                transform.translation.x += 10.0 * sign;
-                self.heading += sign * std::f32::consts::FRAC_PI_2;
-            }
-        }
-        let legs = self.motion.legs();
-        let (target, turn_rate) = if moving < 0.0 || legs.is_empty() {
-            (0.0, 0.0)
-        } else {
-            let cycle: f32 = legs.iter().map(|l| l.seconds).sum();
-            let mut at = moving.rem_euclid(cycle);
-            let mut current = legs[0];
-            for leg in legs {
-                current = *leg;
-                if at < leg.seconds {
-                    break;
-                }
-                at -= leg.seconds;
-            }
-            (current.speed, current.turn_rate)
-        };
-        let change = (target - self.speed).clamp(-ACCELERATION * dt, ACCELERATION * dt);
-        let speed = self.speed + change;
-        // The mean of the speeds at both ends of the step: the distance is exact for a
-        // constant acceleration.
-        let distance = 0.5 * (self.speed + speed) * dt;
-        self.speed = speed;
-        let half_turn = 0.5 * turn_rate * dt;
-        let forward = Quat::from_rotation_y(self.heading + half_turn) * Vec3::Z;
-        transform.translation += forward * distance;
-        self.heading += turn_rate * dt;
-        transform.rotation = Quat::from_rotation_y(self.heading);
-        if legs.is_empty() {
-            // On the spot: the clip at its own pace.
-            return 1.0;
-        }
-        match self.stance_speed {
-            Some(stance) if stance > 0.0 => self.speed / stance,
-            _ => 0.0,
-        }
-    }
-}
 
 /// Spawns the poncho scene at `Startup` (with the [`PonchoScene`] resource, default if
 /// absent), with the characters' motion of [`CharacterMotionPlugin`].
@@ -364,18 +152,30 @@ pub struct CharacterMotionPlugin;
 
 impl Plugin for CharacterMotionPlugin {
     fn build(&self, app: &mut App) {
-        app.register_type::<(Character, CharacterController, Waving)>()
+        if !app.is_plugin_added::<WavePlugin>() {
+            app.add_plugins(WavePlugin);
+        }
+        app.register_type::<(Character, CharacterController)>()
             // As a game's controller would, in `FixedUpdate`; ordered before the drape sets
             // should the drape schedule be `FixedUpdate` too.
-            .add_systems(
-                FixedUpdate,
-                (drive_characters, wave).before(DrapeSystems::Prepare),
-            );
+            .add_systems(FixedUpdate, drive_characters.before(DrapeSystems::Prepare));
     }
 }
 
-/// A [`Character`] whose first IK goal waves its right hand now and then ([`wave_at`]); without
-/// it the goal's weight is 0 and the clip moves the arm.
+/// Raises the right hand of every [`Waving`] entity by the first goal of its
+/// `InverseKinematics` ([`wave_at`]), and lowers it (weight 0) on a [`Character`] that is not
+/// waving: a [`Skeleton`] character or a glTF one alike.
+pub struct WavePlugin;
+
+impl Plugin for WavePlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<Waving>()
+            .add_systems(FixedUpdate, wave.before(DrapeSystems::Prepare));
+    }
+}
+
+/// An entity whose first IK goal waves its right hand now and then ([`wave_at`]); a
+/// [`Character`] without it has the goal's weight at 0 and the clip moves the arm.
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component)]
 pub struct Waving;
@@ -482,6 +282,7 @@ fn spawn_poncho_scene(
                         settings: IkSettings::default(),
                         weight: 0.0,
                         max_speed: IkGoal::DEFAULT_MAX_SPEED,
+                        joint_limits: Vec::new(),
                     }],
                     results: Vec::new(),
                 },
@@ -502,6 +303,7 @@ fn spawn_poncho_scene(
                 density: scene.density,
                 solver: scene.solver,
                 inertia: scene.inertia,
+                speed_limit: scene.speed_limit,
                 divergence: scene.divergence,
                 ..default()
             },
@@ -524,10 +326,15 @@ fn numbered(name: &str, i: u32) -> String {
     }
 }
 
-fn wave(
-    time: Res<Time>,
-    mut characters: Query<(&mut InverseKinematics, Has<Waving>), With<Character>>,
-) {
+/// The characters whose first IK goal [`wave`] drives: the scene's, and any marked [`Waving`].
+type WaveGoals<'w, 's> = Query<
+    'w,
+    's,
+    (&'static mut InverseKinematics, Has<Waving>),
+    Or<(With<Character>, With<Waving>)>,
+>;
+
+fn wave(time: Res<Time>, mut characters: WaveGoals) {
     for (mut ik, waving) in &mut characters {
         if let Some(goal) = ik.goals.first_mut() {
             if waving {
