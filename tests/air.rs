@@ -2,7 +2,7 @@
 //! velocity, an edge-on fall, a cloth moving with the air, a flag in steady and gusty wind,
 //! and the wind resource and sources in an App.
 
-mod common;
+use crate::common;
 
 use bevy::math::Vec3A;
 use bevy::prelude::*;

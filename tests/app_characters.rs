@@ -1,7 +1,7 @@
 //! Characters in a headless App: a skeleton playing a clip file, inverse kinematics on top of
 //! the clip, bone colliders attached by name to any hierarchy.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

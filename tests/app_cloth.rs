@@ -2,7 +2,7 @@
 //! writes its mesh, moves with its entity and its attachments, refuses bad meshes, follows
 //! its settings, steps in the schedule chosen, and is reflected for an inspector.
 
-mod common;
+use crate::common;
 
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
 use bevy::prelude::*;

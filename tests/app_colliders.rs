@@ -1,7 +1,7 @@
 //! Collider entities in a headless App: degenerate ones left out with an error, one on a
 //! child entity posed from its transform chain, a box read from an OBJ file.
 
-mod common;
+use crate::common;
 
 use bevy::mesh::{Mesh, PrimitiveTopology};
 use bevy::prelude::*;

@@ -1,7 +1,7 @@
 //! A cloth entity in a headless App whose solver diverges (reported, then frozen or reset) or
 //! changes method on the way.
 
-mod common;
+use crate::common;
 
 use bevy::ecs::message::MessageCursor;
 use bevy::prelude::*;

@@ -1,7 +1,7 @@
 //! How a cloth entity is drawn in a headless App: debug colours, per-triangle paint, a fine
 //! mesh drawn over a coarse simulation, a cloth on a sphere drawn outside it.
 
-mod common;
+use crate::common;
 
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::*;

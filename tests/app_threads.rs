@@ -1,6 +1,6 @@
 //! Cloth entities in a headless App stepped on several threads.
 
-mod common;
+use crate::common;
 
 use bevy::prelude::*;
 use bevy_drape::prelude::*;

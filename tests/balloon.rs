@@ -1,7 +1,7 @@
 //! Closed cloth (balloons) and mesh files: the volume constraint, welding of split vertices,
 //! and the refusal of bad OBJ content.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

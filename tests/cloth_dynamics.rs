@@ -2,7 +2,7 @@
 //! free fall, angular momentum, pendulums and springs, energy, a shearing quad, a repeatable
 //! step.
 
-mod common;
+use crate::common;
 
 use std::f32::consts::PI;
 

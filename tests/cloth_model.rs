@@ -2,7 +2,7 @@
 //! shear edges found in any quad pattern, typed errors for bad input, pins moved, set and
 //! released.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{ClothModel, ClothSolver, EdgeKind, GridDesc, SolverSettings};

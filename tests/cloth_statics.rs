@@ -2,7 +2,7 @@
 //! of a hanging cloth, tethers, the ground, a cantilever, a catenary, the bending stiffness of
 //! a grid.
 
-mod common;
+use crate::common;
 
 use bevy::math::Vec3;
 use bevy_drape::cloth::{

@@ -2,7 +2,7 @@
 //! contact, a collider thinner than the edges does not pass between two particles, an undone
 //! adaptive step leaves no trace in the contacts.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Quat, Vec2, Vec3, Vec3A};
 use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverMethod, SolverSettings};

@@ -1,7 +1,7 @@
 //! Cloth resting on colliders keeps its length: rings of cloth on a capsule's dome, strips
 //! hanging over a bar.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Quat, Vec3, Vec3A};
 use bevy::math::{UVec2, Vec2};

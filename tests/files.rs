@@ -3,7 +3,7 @@
 //! file, again when the file changes, keeping them when a file does not parse, and a
 //! character's proxies spawned again when its colliders file changes.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

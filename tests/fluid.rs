@@ -1,7 +1,7 @@
 //! Position Based Fluids against measurements: columns of fluid at rest in boxes, and the
 //! dam break of Martin and Moyce (1952).
 
-mod common;
+use crate::common;
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::collide::{ContactMaterial, SolverCollider};

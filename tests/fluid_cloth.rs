@@ -1,7 +1,7 @@
 //! Fluid and cloth stepped together: momentum kept in free fall, a sheet held at its corners
 //! carries the water's weight, a closed cloth bag holds its water.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 use bevy::prelude::{Mesh, Meshable, Sphere};

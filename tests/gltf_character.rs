@@ -10,7 +10,7 @@
 //! - The poncho drapes on the character while it walks through the world: no particle deeper
 //!   in a proxy than the margin, finite, the centroid over the chest.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

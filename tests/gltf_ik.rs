@@ -12,7 +12,7 @@
 //! - On a hierarchy nothing animates, IK's rotation is not taken for the animated one: with
 //!   the weight back at 0 the joints return to where they were.
 
-mod common;
+use crate::common;
 
 use std::sync::{Mutex, Once};
 

@@ -1,7 +1,7 @@
 //! FABRIK on hinge chains: reachable targets are reached, bones turn about their hinges only
 //! and within their limits, unreachable targets are approached as well as the hinges allow.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Quat, Vec3};
 use bevy_drape::skeleton::ik::{IkChain, IkScratch, IkSettings, effector_position, solve};

@@ -5,7 +5,7 @@
 //! the brute-force closest triangle), and whether any ear's edge passes through a cloth
 //! triangle or any cloth edge through an ear.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -3,7 +3,7 @@
 //! motion and keeping it when the frame stops, taken along by a teleport and drawn on the
 //! character, its speed relative to the frame limited. The characters' proxy velocities are in `tests/moving_character_velocities.rs`.
 
-mod common;
+use crate::common;
 
 use bevy::prelude::*;
 use bevy_drape::cloth::{ClothModel, ClothSolver};

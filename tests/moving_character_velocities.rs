@@ -12,7 +12,7 @@
 //! A cloth in a moving frame is in `tests/moving_character_cloth.rs`; the main scene in every
 //! motion is in `tests/poncho.rs`.
 
-mod common;
+use crate::common;
 
 use std::f32::consts::TAU;
 use std::sync::Arc;

@@ -3,7 +3,7 @@
 //! step does, keeps momentum under rigid damping, and leaves the methods and cloths it does
 //! not split exactly as one thread steps them.
 
-mod common;
+use crate::common;
 
 use bevy::math::{Quat, UVec2, Vec2, Vec3, Vec3A};
 use bevy::tasks::TaskPoolBuilder;

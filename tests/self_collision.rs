@@ -1,6 +1,6 @@
 //! Self-collision in a headless App: the sheet-drop scene with and without it.
 
-mod common;
+use crate::common;
 
 use bevy::prelude::*;
 use bevy_drape::prelude::*;

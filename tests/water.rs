@@ -1,7 +1,7 @@
 //! Water in a headless App (`MinimalPlugins`): a `Fluid` on a cloth's entity is stepped with
 //! the cloth, a lone jet fills a box, bad settings are refused with the app running on.
 
-mod common;
+use crate::common;
 
 use bevy::prelude::*;
 use bevy_drape::fluid::plugin::FluidSimulation;

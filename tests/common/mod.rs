@@ -1,7 +1,7 @@
 //! What the integration tests share: the headless App, the random generator and a few
-//! helpers to spawn a grid cloth and read it back. Each test file compiles this module on its
-//! own (`mod common;`) and uses part of it.
-// Every test file uses only some of these items.
+//! helpers to spawn a grid cloth and read it back. The integration binary (`tests/main.rs`) and
+//! the `avian` binary each compile it (`mod common;`); the tests reach it as `crate::common`.
+// The avian binary uses only some of these items.
 #![allow(dead_code, unused_imports)]
 
 use std::time::{Duration, Instant};
