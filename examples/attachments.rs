@@ -20,6 +20,9 @@ const N: u32 = 25;
 const WIDTH: f32 = 1.2;
 
 fn main() {
+    if !common::has_graphics_adapter("attachments") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(DefaultClothSettings(ClothSettings { ..default() }))

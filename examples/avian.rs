@@ -20,6 +20,9 @@ use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
 
 fn main() {
+    if !common::has_graphics_adapter("avian") {
+        return;
+    }
     App::new()
         .add_plugins((
             DefaultPlugins,

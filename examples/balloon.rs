@@ -21,6 +21,9 @@ const BALLOON_X: f32 = -0.8;
 const STOOL_X: f32 = 0.8;
 
 fn main() {
+    if !common::has_graphics_adapter("balloon") {
+        return;
+    }
     App::new()
         .add_plugins((
             DefaultPlugins,

@@ -38,6 +38,9 @@ fn spheres_at(t: f32) -> [(Vec3, f32); 3] {
 struct Sweeping;
 
 fn main() {
+    if !common::has_graphics_adapter("collisions") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(Time::<Fixed>::from_hz(60.0))

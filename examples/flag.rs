@@ -30,6 +30,9 @@ const GUSTS: Gusts = Gusts {
 };
 
 fn main() {
+    if !common::has_graphics_adapter("flag") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(Wind {

@@ -28,7 +28,7 @@ use bevy_drape::prelude::*;
 use bevy_drape::skeleton::ik::JointLimits;
 use bevy_drape::skeleton::plugin::BoneProxyOf;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, cloth_material, follow_with_camera, spawn_stage};
+use common::{ExamplePlugin, cloth_material, follow_with_camera, spawn_ground_tiles, spawn_stage};
 use drape_scenes::gltf_character::{
     GltfCharacter, GltfCharacterScene, GltfWalkPlugin, walk_controller,
 };
@@ -107,6 +107,7 @@ fn setup(
         Vec3::new(0.0, 1.0, 0.0),
         3.2,
     );
+    spawn_ground_tiles(&mut commands, &mut meshes, &mut materials);
     commands.spawn((
         Name::new("ground"),
         ClothCollider::plane().with_friction(0.6),

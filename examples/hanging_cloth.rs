@@ -23,6 +23,9 @@ const N: u32 = 32;
 const HEIGHT: f32 = 1.5;
 
 fn main() {
+    if !common::has_graphics_adapter("hanging_cloth") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(DefaultClothSettings(ClothSettings { ..default() }))

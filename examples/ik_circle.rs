@@ -26,6 +26,9 @@ const PERIOD: f32 = 2.0;
 const WRIST: Vec3 = Vec3::new(0.0, -0.25, 0.0);
 
 fn main() {
+    if !common::has_graphics_adapter("ik_circle") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(Circle { radius: 0.12 })

@@ -20,6 +20,9 @@ const RADIUS: f32 = 0.3;
 const SPACING: f32 = 1.3;
 
 fn main() {
+    if !common::has_graphics_adapter("obstacles") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .add_systems(Startup, setup)

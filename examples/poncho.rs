@@ -27,7 +27,10 @@ use bevy_drape::interact::adapter::find_graphics_adapter;
 use bevy_drape::prelude::*;
 use bevy_drape::schedule::DrapeTimings;
 use common::offscreen::{OffscreenPlugin, has_display, headless_default_plugins};
-use common::{ExamplePlugin, cloth_material, dress_humanoids, follow_with_camera, spawn_stage};
+use common::{
+    ExamplePlugin, cloth_material, dress_humanoids, follow_with_camera, spawn_ground_tiles,
+    spawn_stage,
+};
 use drape_scenes::poncho::{
     Character, CharacterController, CharacterMotion, CharacterMotionPlugin, PonchoScene, WRIST,
     Waving, run_headless,
@@ -185,24 +188,7 @@ fn setup(
         Vec3::new(0.0, 1.0, 0.0),
         3.2,
     );
-    // A checkerboard of 1 m tiles on the ground, so the walk shows against it.
-    let tile = meshes.add(Plane3d::default().mesh().size(1.0, 1.0));
-    let dark = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.45, 0.48, 0.43),
-        perceptual_roughness: 0.9,
-        ..default()
-    });
-    for i in -12..12 {
-        for j in -12..12 {
-            if (i + j) % 2 == 0 {
-                commands.spawn((
-                    Mesh3d(tile.clone()),
-                    MeshMaterial3d(dark.clone()),
-                    Transform::from_xyz(i as f32 + 0.5, 0.002, j as f32 + 0.5),
-                ));
-            }
-        }
-    }
+    spawn_ground_tiles(&mut commands, &mut meshes, &mut materials);
     commands.spawn((
         Text::new(""),
         TextFont::from_font_size(FontSize::Px(16.0)),
@@ -224,14 +210,9 @@ fn keys(
     mut ponchos: Query<(&mut ClothSimulation, &mut ClothSettings), With<Poncho>>,
     mut wind: ResMut<Wind>,
 ) {
-    let digits = [
-        KeyCode::Digit1,
-        KeyCode::Digit2,
-        KeyCode::Digit3,
-        KeyCode::Digit4,
-    ];
-    let motion_keys = digits.into_iter().chain([KeyCode::Digit5]);
-    for (key, motion) in motion_keys.zip(CharacterMotion::ALL) {
+    use KeyCode::{Digit1, Digit2, Digit3, Digit4, Digit5};
+    let motion_keys = [Digit1, Digit2, Digit3, Digit4, Digit5];
+    for (key, motion) in motion_keys.into_iter().zip(CharacterMotion::ALL) {
         for (_, mut controller, _) in &mut characters {
             if input.just_pressed(key) {
                 controller.switch_to(motion);

@@ -6,7 +6,7 @@
 //!     [--shear-compliance inf] [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport|tour|sprint|hop|set-off|turn-around|zigzag|carried]
-//!     [--inertia 1] [--speed-limit 2|none] [--neck-radius 0.1]
+//!     [--inertia 1] [--speed-limit 1.5|none] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
 //!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20] [--no-exact-edges]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]

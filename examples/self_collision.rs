@@ -18,6 +18,9 @@ use common::{ExamplePlugin, cloth_material, spawn_stage};
 const N: u32 = 32;
 
 fn main() {
+    if !common::has_graphics_adapter("self_collision") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .add_systems(Startup, setup)

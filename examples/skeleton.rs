@@ -23,6 +23,9 @@ const CIRCLE: f32 = 1.5;
 const SPEED: f32 = 0.9;
 
 fn main() {
+    if !common::has_graphics_adapter("skeleton") {
+        return;
+    }
     App::new()
         .add_plugins((DefaultPlugins, DrapePlugins::default(), ExamplePlugin))
         .insert_resource(Ghosts(true))

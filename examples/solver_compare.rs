@@ -26,6 +26,9 @@ const HEIGHT: f32 = 1.5;
 const SPACING: f32 = 1.6;
 
 fn main() {
+    if !common::has_graphics_adapter("solver_compare") {
+        return;
+    }
     let substeps = std::env::args()
         .skip_while(|a| a != "--substeps")
         .nth(1)

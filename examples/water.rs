@@ -27,6 +27,9 @@ const HEIGHT: f32 = 0.9;
 const SPAN: f32 = 0.7;
 
 fn main() {
+    if !common::has_graphics_adapter("water") {
+        return;
+    }
     let mut app = App::new();
     if has_display() {
         app.add_plugins((DefaultPlugins, ExamplePlugin));

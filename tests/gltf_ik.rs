@@ -14,10 +14,6 @@
 
 use crate::common;
 
-use std::sync::{Mutex, Once};
-
-use bevy::log::tracing::{self, Subscriber};
-use bevy::log::tracing_subscriber::{self, Layer, layer::SubscriberExt};
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 use bevy_drape::prelude::*;
@@ -26,50 +22,8 @@ use bevy_drape::skeleton::ik::JointLimits;
 use drape_scenes::gltf_character::{GltfCharacter, GltfCharacterScene, headless_app};
 use drape_scenes::poncho::{CharacterMotion, WRIST};
 
+use common::warnings::{WARNINGS, capture_warnings, warnings_with};
 use common::{Rng, an_animation_plays, update_until_loaded};
-
-/// Every warning logged in this test binary.
-static WARNINGS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-
-/// Collects warnings into [`WARNINGS`].
-struct Capture;
-
-impl<S: Subscriber> Layer<S> for Capture {
-    fn on_event(&self, event: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
-        struct Message(String);
-        impl tracing::field::Visit for Message {
-            fn record_debug(&mut self, field: &tracing::field::Field, value: &dyn std::fmt::Debug) {
-                if field.name() == "message" {
-                    self.0 = format!("{value:?}");
-                }
-            }
-        }
-        if *event.metadata().level() == tracing::Level::WARN {
-            let mut message = Message(String::new());
-            event.record(&mut message);
-            WARNINGS.lock().unwrap().push(message.0);
-        }
-    }
-}
-
-/// Starts collecting warnings (once per test binary).
-fn capture_warnings() {
-    static START: Once = Once::new();
-    START.call_once(|| {
-        tracing::subscriber::set_global_default(tracing_subscriber::registry().with(Capture))
-            .expect("no other subscriber in the tests");
-    });
-}
-
-/// How many warnings so far contain every one of `parts`.
-fn warnings_with(parts: &[&str]) -> usize {
-    WARNINGS
-        .lock()
-        .unwrap()
-        .iter()
-        .filter(|w| parts.iter().all(|p| w.contains(p)))
-        .count()
-}
 
 /// The glTF character walking through the world, its scene spawned and its walk playing.
 fn walking_character() -> (App, Entity) {

@@ -125,20 +125,17 @@ fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_fra
     }
 }
 
-#[test]
-fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
+/// A character at the origin wearing a cape (a 0.6 m sheet pinned at two corners, its entity a
+/// child of the character's and following it), after 30 updates standing.
+fn caped_character() -> (App, Entity, Entity) {
     let mut app = app(MoverAt::FixedUpdate);
-    let character = app
-        .world_mut()
-        .spawn(Transform::from_xyz(0.0, 0.0, 0.0))
-        .id();
+    let character = app.world_mut().spawn(Transform::default()).id();
     let grid = GridDesc::square(0.6, 7, Vec3::new(-0.3, 1.2, -0.3));
     let mesh = add_grid(&mut app, &grid);
     let cloth = app
         .world_mut()
         .spawn((
             Mesh3d(mesh),
-            // A cape pinned to the character (its entity a child of it) and following it.
             Cloth::pinned([0, 6]).following(character),
             Transform::default(),
             ChildOf(character),
@@ -147,6 +144,12 @@ fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
     for _ in 0..30 {
         app.update();
     }
+    (app, character, cloth)
+}
+
+#[test]
+fn a_teleported_character_takes_its_cloth_along_and_the_cloth_is_drawn_on_it() {
+    let (mut app, character, cloth) = caped_character();
     let centroid = |app: &App| {
         let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
         let x = &sim.state().positions;
@@ -270,4 +273,105 @@ fn the_speed_limit_cuts_each_particles_speed_relative_to_its_frame_and_nothing_e
         );
         assert_eq!(after.positions, before.positions);
     }
+}
+
+#[test]
+fn a_character_carried_at_1000_m_s_or_sent_to_nan_leaves_its_cloth_finite() {
+    common::warnings::capture_warnings();
+    let (mut app, character, cloth) = caped_character();
+    let finite_everywhere = |app: &App, what: &str| {
+        let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
+        assert!(sim.is_finite(), "{what}: the solver's state");
+        let handle = &app.world().get::<Mesh3d>(cloth).unwrap().0;
+        let mesh = app.world().resource::<Assets<Mesh>>().get(handle).unwrap();
+        for attribute in [Mesh::ATTRIBUTE_POSITION, Mesh::ATTRIBUTE_NORMAL] {
+            match mesh.attribute(attribute) {
+                Some(bevy::mesh::VertexAttributeValues::Float32x3(v)) => assert!(
+                    v.iter().flatten().all(|c| c.is_finite()),
+                    "{what}: the mesh's {}",
+                    attribute.name
+                ),
+                other => panic!("{what}: {} is {other:?}", attribute.name),
+            }
+        }
+        assert!(
+            app.world()
+                .get::<GlobalTransform>(cloth)
+                .unwrap()
+                .translation()
+                .is_finite()
+                || what == "sent to NaN",
+            "{what}: the cloth's transform"
+        );
+    };
+    // A platform at 1000 m/s: 16.7 m a step, every step beyond the teleport distance, so the
+    // cloth is taken along as by a respawn, unstretched.
+    for k in 1..=60 {
+        let x = k as f32 * 1000.0 / 60.0;
+        app.world_mut()
+            .get_mut::<Transform>(character)
+            .unwrap()
+            .translation = Vec3::new(x, 0.0, 0.0);
+        app.update();
+        finite_everywhere(&app, "at 1000 m/s");
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap();
+    assert!(sim.followed().unwrap().jumped);
+    assert!(
+        sim.solver().strain().max < 0.05,
+        "{}",
+        sim.solver().strain().max
+    );
+    let before: Vec<_> = sim.solver().state().positions.clone();
+    // A jump to NaN: the cloth stays where it was, simulated in the world alone, with one
+    // warning naming it.
+    app.world_mut()
+        .get_mut::<Transform>(character)
+        .unwrap()
+        .translation = Vec3::NAN;
+    for _ in 0..10 {
+        app.update();
+        finite_everywhere(&app, "sent to NaN");
+    }
+    let after = &app
+        .world()
+        .get::<ClothSimulation>(cloth)
+        .unwrap()
+        .solver()
+        .state()
+        .positions;
+    let moved = before
+        .iter()
+        .zip(after)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0f32, f32::max);
+    assert!(moved < 0.5, "the cloth moved {moved} m");
+    assert_eq!(
+        common::warnings::warnings_with(&[
+            &format!("cloth {cloth} follows {character}"),
+            "no valid transform"
+        ]),
+        1
+    );
+    // Back on its feet at a finite place: taken along again.
+    app.world_mut()
+        .get_mut::<Transform>(character)
+        .unwrap()
+        .translation = Vec3::new(5.0, 0.0, 0.0);
+    for _ in 0..30 {
+        app.update();
+        finite_everywhere(&app, "back");
+    }
+    let sim = app.world().get::<ClothSimulation>(cloth).unwrap().solver();
+    let centroid = Vec3::from(
+        sim.state()
+            .positions
+            .iter()
+            .copied()
+            .sum::<bevy::math::Vec3A>(),
+    ) / sim.state().len() as f32;
+    assert!(
+        centroid.distance(Vec3::new(5.0, 1.0, 0.0)) < 1.0,
+        "the cloth is at {centroid}"
+    );
 }

@@ -22,6 +22,21 @@ use bevy_drape::cloth::plugin::ClothDebugColors;
 use bevy_drape::cloth::{ClothPaint, DebugColorMode, PaintTarget};
 use bevy_drape::prelude::ClothSimulation;
 
+/// Whether Bevy's renderer will find a graphics adapter here. If not, says so in one line
+/// naming `example` and what to install, and the example should return (exit 0): without an
+/// adapter Bevy's renderer would panic.
+// The poncho and gltf_character examples run their scene headless instead.
+#[allow(dead_code)]
+pub(crate) fn has_graphics_adapter(example: &str) -> bool {
+    match bevy_drape::interact::adapter::find_graphics_adapter() {
+        Ok(_) => true,
+        Err(reason) => {
+            println!("{example}: {reason}; nothing to show without one");
+            false
+        }
+    }
+}
+
 /// Adds the orbit camera controls and the screenshot-and-exit switch.
 pub(crate) struct ExamplePlugin;
 
@@ -199,6 +214,32 @@ pub(crate) fn spawn_stage(
         pitch: 0.35,
     };
     commands.spawn((Camera3d::default(), orbit.transform(), orbit));
+}
+
+/// A checkerboard of 1 m tiles on the ground, 24 m square, so a walk shows against it.
+#[allow(dead_code)]
+pub(crate) fn spawn_ground_tiles(
+    commands: &mut Commands,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+) {
+    let tile = meshes.add(Plane3d::default().mesh().size(1.0, 1.0));
+    let dark = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.45, 0.48, 0.43),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
+    for i in -12..12 {
+        for j in -12..12 {
+            if (i + j) % 2 == 0 {
+                commands.spawn((
+                    Mesh3d(tile.clone()),
+                    MeshMaterial3d(dark.clone()),
+                    Transform::from_xyz(i as f32 + 0.5, 0.002, j as f32 + 0.5),
+                ));
+            }
+        }
+    }
 }
 
 /// A double-sided cloth material.

@@ -197,6 +197,16 @@ impl FrameTracker {
     pub fn reset(&mut self) {
         *self = Self::default();
     }
+
+    /// The frame could not be seen this step (its transform not finite): where it was last
+    /// seen is kept, at rest, so its return is a motion from there (a jump past the teleport
+    /// thresholds, which carries what follows it along) and not a new start.
+    pub fn lose_sight(&mut self) {
+        if let Some(last) = self.last {
+            self.last = Some(FrameStep::at_rest(last.end));
+        }
+        self.last_mean = None;
+    }
 }
 
 #[cfg(test)]
@@ -239,6 +249,30 @@ mod tests {
         // A turn past 60 degrees is a jump too.
         let turned = tracker.step(pose(10.12, 0.05 + 1.2), dt, Some(&teleport));
         assert!(turned.jumped);
+    }
+
+    #[test]
+    fn a_frame_lost_from_sight_returns_from_where_it_was_last_seen() {
+        let teleport = Teleport::default();
+        let dt = 0.1;
+        let mut tracker = FrameTracker::default();
+        tracker.step(pose(0.0, 0.0), dt, Some(&teleport));
+        let walked = tracker.step(pose(0.12, 0.0), dt, Some(&teleport));
+        tracker.lose_sight();
+        tracker.lose_sight();
+        // Back far away: a jump from the last pose seen, carrying what follows it along.
+        let mut far = tracker;
+        let back = far.step(pose(50.0, 0.0), dt, Some(&teleport));
+        assert!(back.jumped);
+        assert_eq!(back.start, walked.end);
+        // Back nearby: a motion from there, its velocity from this step alone.
+        let near = tracker.step(pose(0.22, 0.0), dt, Some(&teleport));
+        assert!(!near.jumped && near.start == walked.end);
+        assert!((near.linear_velocity.x - 1.0).abs() < 1e-4, "{near:?}");
+        // Never seen: lost is a fresh start.
+        let mut never = FrameTracker::default();
+        never.lose_sight();
+        assert_eq!(never, FrameTracker::default());
     }
 
     /// A smooth random motion: a circle with a wobble, turning about a tilted axis at a

@@ -20,6 +20,7 @@ use bevy_drape::prelude::*;
 pub(crate) use bevy_drape::rng::Rng;
 
 pub(crate) mod moving;
+pub(crate) mod warnings;
 
 /// Updates `app` with time standing still until `ready` (a scene file loaded, its animation
 /// playing), at most 60 s of wall time, then lets time run at 1/60 s per update.

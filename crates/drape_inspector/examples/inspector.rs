@@ -28,6 +28,11 @@ use common::{ExamplePlugin, cloth_material, dress_humanoids, spawn_stage};
 struct Poncho;
 
 fn main() {
+    // Without an adapter Bevy's renderer would panic: say so and exit 0.
+    if let Err(reason) = bevy_drape::interact::adapter::find_graphics_adapter() {
+        println!("inspector: {reason}; nothing to show without one");
+        return;
+    }
     App::new()
         // The crate's assets (the clip and the poncho), wherever this package is run from.
         .add_plugins((

@@ -156,7 +156,7 @@ impl Default for ClothSettings {
 
 impl ClothSettings {
     /// The default [`ClothSettings::speed_limit`], m/s.
-    pub const DEFAULT_SPEED_LIMIT: f32 = 2.0;
+    pub const DEFAULT_SPEED_LIMIT: f32 = 1.5;
 }
 
 /// What happens to a cloth that diverges. Either way a [`ClothDiverged`] message is sent and

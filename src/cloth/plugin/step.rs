@@ -276,7 +276,7 @@ fn step_cloth<C: ClothCoupling>(
                     );
                     simulation.warned_follow = true;
                 }
-                simulation.follow.reset();
+                simulation.follow.lose_sight();
             }
         }
     }

@@ -112,7 +112,7 @@ pub(super) fn track_skeletons(
                     warn!("skeleton {entity} has no valid transform: its bones are not posed");
                     state.warned_transform = true;
                 }
-                state.tracker.reset();
+                state.tracker.lose_sight();
                 state.global = None;
             }
         }
