@@ -10,6 +10,7 @@
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
 //!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20] [--no-exact-edges]
 //! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
+//! cargo run --release --example scenes -- mesh-drop --mesh bunny|duck|spider|PATH.obj [--n 16] [--frames 180]
 //! cargo run --release --example scenes -- pour [--substeps 16] [--iterations 4] [--frames 360] [--runs 3]
 //! ```
 //!
@@ -77,7 +78,7 @@ use drape_scenes::poncho::{
     run_headless,
 };
 use drape_scenes::scenes::{
-    Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, SheetDrop, median,
+    Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, MeshDrop, SheetDrop, median,
 };
 use drape_scenes::water::Pour;
 
@@ -110,6 +111,7 @@ fn run() -> Result<(), String> {
     let mut wind_speed = 10.0f32;
     let mut gusts = 0.0f32;
     let mut neck_radius: Option<f32> = None;
+    let mut mesh_path: Option<String> = None;
     let mut simulate_n: Option<u32> = None;
     let mut simulate_drawn = false;
     let mut characters = 8u32;
@@ -172,6 +174,7 @@ fn run() -> Result<(), String> {
             }
             "--wind" => wind_speed = parse(&value()?)?,
             "--gusts" => gusts = parse(&value()?)?,
+            "--mesh" => mesh_path = Some(value()?),
             "--neck-radius" => neck_radius = Some(parse(&value()?)?),
             "--simulate-n" => simulate_n = Some(parse(&value()?)?),
             "--simulate-drawn" => simulate_drawn = true,
@@ -303,6 +306,36 @@ fn run() -> Result<(), String> {
                 centre.x,
                 centre.y,
                 centre.z,
+                run.finite
+            );
+            Ok(())
+        }
+        "mesh-drop" => {
+            let path = mesh_path.ok_or("mesh-drop needs --mesh bunny|duck|spider|PATH.obj")?;
+            let path = match path.as_str() {
+                "bunny" | "duck" | "spider" => {
+                    format!("{}/assets/meshes/{path}.obj", env!("CARGO_MANIFEST_DIR"))
+                }
+                _ => path,
+            };
+            let obj = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
+            let scene = MeshDrop::from_obj(n, &obj, 0.0).map_err(|e| format!("{path}: {e}"))?;
+            let mut last = None;
+            let mut all_frames = Vec::new();
+            for _ in 0..runs.max(1) {
+                let run = scene.run(&settings, frames)?;
+                all_frames.extend_from_slice(&run.frame_seconds);
+                last = Some(run);
+            }
+            let run = last.ok_or("no run")?;
+            println!(
+                "{{\"scene\":\"mesh-drop\",\"mesh\":\"{path}\",\"closed\":{},\"n\":{n},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"max_strain\":{:.6},\"largest_strain\":{:.6},\"deepest\":{:.6},\"contacts\":{},\"finite\":{}}}",
+                scene.mesh.is_closed(),
+                median(&all_frames) * 1e3,
+                run.max_strain,
+                run.largest_strain,
+                run.deepest,
+                run.sim.contact_count(),
                 run.finite
             );
             Ok(())

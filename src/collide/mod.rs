@@ -1,7 +1,7 @@
 //! Colliders: shapes (sphere, capsule, plane, triangle mesh with a bounding-volume
 //! hierarchy and pseudo-normals), their motion over a fixed step, particle contacts with
 //! restitution and Coulomb friction on the velocity relative to the collider (`contact.rs`),
-//! the cloth's triangles against a mesh's thin features (`thin.rs`), its structural edges
+//! the cloth's triangles against a mesh's vertices (`vertex_contacts.rs`), its structural edges
 //! against spheres and capsules thin enough to pass between two particles
 //! (`edge_contacts.rs`); the Bevy components in
 //! [`plugin`]; with the `avian` feature, Avian's colliders as cloth colliders (`avian`).
@@ -15,8 +15,8 @@ pub mod motion;
 pub mod plugin;
 pub(crate) mod shapes;
 pub(crate) mod skin;
-pub(crate) mod thin;
 pub(crate) mod trimesh;
+pub(crate) mod vertex_contacts;
 
 pub use motion::{FrameStep, FrameTracker, Teleport};
 pub use shapes::{ContactMaterial, MAX_COORDINATE, RigidPose, SolverCollider, SolverShape};

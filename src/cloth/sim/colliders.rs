@@ -138,4 +138,11 @@ impl ClothSolver {
     pub fn contact_count(&self) -> usize {
         self.contacts.count()
     }
+
+    /// How many vertices of triangle-mesh colliders pushed a cloth triangle in the last
+    /// substep (a vertex under two triangles counts twice): a cloth resting on a mesh's
+    /// ridges and tips is held by these rather than by its particles' contacts.
+    pub fn mesh_vertex_contact_count(&self) -> usize {
+        self.vertex_contacts.count()
+    }
 }

@@ -24,7 +24,7 @@ use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
 use crate::collide::contact::ContactScratch;
 use crate::collide::edge_contacts::EdgeContacts;
-use crate::collide::thin::ThinFeatureContacts;
+use crate::collide::vertex_contacts::MeshVertexContacts;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::ClothError;
 
@@ -132,7 +132,7 @@ pub struct ClothSolver {
     last_substeps: u32,
     colliders: Vec<SolverCollider>,
     contacts: ContactScratch,
-    thin_contacts: ThinFeatureContacts,
+    vertex_contacts: MeshVertexContacts,
     /// The cloth's edges against thin spheres and capsules.
     edge_contacts: EdgeContacts,
     /// The particle being dragged, moved like a pin.
@@ -258,7 +258,7 @@ impl ClothSolver {
             last_substeps: 0,
             colliders: Vec::new(),
             contacts: ContactScratch::default(),
-            thin_contacts: ThinFeatureContacts::default(),
+            vertex_contacts: MeshVertexContacts::default(),
             edge_contacts,
             drag: None,
             volume: None,

@@ -7,7 +7,8 @@
 //!    (symplectic Euler; the hybrid's springs are the shear and bend ones only). Pins move to
 //!    their interpolated targets.
 //! 2. project, `iterations` times (once for mass-spring), in this order: colliders (planes
-//!    included; in the last iteration also the cloth's edges against the spheres and capsules
+//!    included; the vertices of triangle meshes against the cloth's triangles,
+//!    `collide/vertex_contacts.rs`; in the last iteration also the cloth's edges against the spheres and capsules
 //!    thin enough to pass between two particles, `collide/edge_contacts.rs`) with friction on
 //!    the positions and then self-collision, first in every
 //!    iteration for all but mass-spring (`collide/contact.rs`: the constraints after them carry
@@ -22,8 +23,8 @@
 //!    mass-spring, self-collision and the colliders last. After the last iteration, with
 //!    [`SolverSettings::exact_edges`] and while the cloth touches a collider, the structural
 //!    edges are solved exactly (`fast_projection.rs`); then the closing collider pass moves
-//!    anything left inside a collider onto its surface (the particles, then the edges against
-//!    thin colliders). Bending in every iteration rather than the first alone
+//!    anything left inside a collider onto its surface (the particles, the mesh vertices
+//!    against the triangles to half their reach, then the edges against thin colliders). Bending in every iteration rather than the first alone
 //!    costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
 //!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration alone
 //!    at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
@@ -54,7 +55,7 @@ use crate::cloth::state::ClothState;
 use crate::collide::SolverCollider;
 use crate::collide::contact::{ContactPass, ContactScratch};
 use crate::collide::edge_contacts::EdgeContacts;
-use crate::collide::thin::ThinFeatureContacts;
+use crate::collide::vertex_contacts::MeshVertexContacts;
 
 /// What a solver method projects, per substep of length `h`.
 struct Projections {
@@ -207,7 +208,7 @@ impl ClothSolver {
         let mut laps = Laps::start();
         self.contacts
             .begin_step(colliders, x.len(), settings.thickness);
-        self.thin_contacts.begin_step(
+        self.vertex_contacts.begin_step(
             colliders,
             &self.model.triangles,
             x,
@@ -235,7 +236,7 @@ impl ClothSolver {
             triangles: &self.model.triangles,
             h_a: contact_push,
             thickness: settings.thickness,
-            thin: self.thin_contacts.has_candidates(),
+            mesh_vertices: self.vertex_contacts.has_candidates(),
             edges: self.edge_contacts.has_candidates(),
         };
         let mut t = StepTimings {
@@ -330,7 +331,7 @@ impl ClothSolver {
                     x,
                     x_prev,
                 );
-                self.thin_contacts.begin_substep();
+                self.vertex_contacts.begin_substep();
                 self.edge_contacts.begin_substep(colliders, &self.contacts);
                 t.contacts += laps.lap();
             }
@@ -380,7 +381,7 @@ impl ClothSolver {
                         };
                         pass.project(
                             &mut self.contacts,
-                            &mut self.thin_contacts,
+                            &mut self.vertex_contacts,
                             &mut self.edge_contacts,
                             (x, x_prev, v, w),
                             ContactPass::Iteration { friction_step },
@@ -481,7 +482,7 @@ impl ClothSolver {
                     if !colliders.is_empty() {
                         collider_pass.project(
                             &mut self.contacts,
-                            &mut self.thin_contacts,
+                            &mut self.vertex_contacts,
                             &mut self.edge_contacts,
                             (x, x_prev, v, w),
                             ContactPass::Iteration {
@@ -496,7 +497,7 @@ impl ClothSolver {
             // touches a collider (the long-range attachments hold a cloth hanging from pins).
             let touching = !colliders.is_empty()
                 && (self.contacts.touching()
-                    || self.thin_contacts.has_candidates()
+                    || self.vertex_contacts.has_candidates()
                     || self.edge_contacts.touched());
             if let (Some(exact), Some(projection)) = (
                 settings.exact_edge_solve().filter(|_| touching),
@@ -509,7 +510,7 @@ impl ClothSolver {
             if !mass_spring && !colliders.is_empty() {
                 collider_pass.project(
                     &mut self.contacts,
-                    &mut self.thin_contacts,
+                    &mut self.vertex_contacts,
                     &mut self.edge_contacts,
                     (x, x_prev, v, w),
                     ContactPass::Closing,
@@ -601,41 +602,46 @@ struct Particles<'a> {
 #[derive(Clone, Copy)]
 struct ColliderPass<'a> {
     colliders: &'a [SolverCollider],
-    /// The cloth's triangles, for the thin features of triangle-mesh colliders.
+    /// The cloth's triangles, for the vertices of triangle-mesh colliders.
     triangles: &'a [[u32; 3]],
     /// The external acceleration's velocity change over the substep (see
     /// `ContactScratch::project`).
     h_a: Vec3A,
-    /// The cloth's thickness, for the thin features (the particle contacts keep their own).
+    /// The cloth's thickness, for the mesh vertices (the particle contacts keep their own).
     thickness: f32,
-    /// Whether a thin feature may touch the cloth this step.
-    thin: bool,
+    /// Whether a mesh collider's vertex may touch the cloth this step.
+    mesh_vertices: bool,
     /// Whether the cloth's edges are to be projected against the thin spheres and capsules
     /// (some may touch them this step; in the last iteration and the closing pass).
     edges: bool,
 }
 
 impl ColliderPass<'_> {
-    /// Projects the particle contacts, then the thin features against the cloth's triangles,
+    /// Projects the particle contacts, then the mesh vertices against the cloth's triangles,
     /// then the cloth's edges against the thin spheres and capsules.
     fn project(
         &self,
         contacts: &mut ContactScratch,
-        thin: &mut ThinFeatureContacts,
+        vertices: &mut MeshVertexContacts,
         edges: &mut EdgeContacts,
         (x, x_prev, v, w): (&mut [Vec3A], &[Vec3A], &[Vec3A], &[f32]),
         pass: ContactPass,
     ) {
         let c = self.colliders;
         contacts.project(c, x, x_prev, v, w, self.h_a, pass);
-        if self.thin {
-            thin.project(c, contacts, self.triangles, x, x_prev, w, self.thickness);
+        let reach = |collider: &SolverCollider| match pass {
+            ContactPass::Iteration { .. } => collider.margin + self.thickness,
+            ContactPass::Closing => 0.0,
+        };
+        if self.mesh_vertices {
+            // Half the reach in the closing pass (see `collide/vertex_contacts.rs`).
+            let vertex_reach = |collider: &SolverCollider| match pass {
+                ContactPass::Iteration { .. } => collider.margin + self.thickness,
+                ContactPass::Closing => 0.5 * (collider.margin + self.thickness),
+            };
+            vertices.project(c, contacts, self.triangles, x, x_prev, w, vertex_reach);
         }
         if self.edges {
-            let reach = |collider: &SolverCollider| match pass {
-                ContactPass::Iteration { .. } => collider.margin + self.thickness,
-                ContactPass::Closing => 0.0,
-            };
             edges.project(c, x, x_prev, w, reach);
         }
     }

@@ -134,6 +134,38 @@ impl TriMesh {
         best
     }
 
+    /// Appends to `out` the index of every vertex inside `bounds` (a vertex of several
+    /// triangles may come more than once).
+    pub(crate) fn vertices_in(&self, bounds: &Aabb, out: &mut Vec<u32>) {
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = self.nodes[stack[top] as usize];
+            if !node.bounds.overlaps(bounds) {
+                continue;
+            }
+            if node.count > 0 {
+                for t in node.start..node.start + node.count {
+                    for i in self.triangles[t as usize] {
+                        if bounds.contains(self.vertices[i as usize]) {
+                            out.push(i);
+                        }
+                    }
+                }
+            } else if top + 2 <= stack.len() {
+                stack[top] = node.right;
+                stack[top + 1] = node.start;
+                top += 2;
+            }
+        }
+    }
+
+    /// The position of vertex `i`.
+    pub(crate) fn vertex(&self, i: u32) -> Vec3A {
+        self.vertices[i as usize]
+    }
+
     /// The first triangle the segment from `from` to `to` crosses, if any; with `front_only`,
     /// only a crossing from a triangle's front to its back counts (entering a closed mesh,
     /// not leaving it).

@@ -12,11 +12,9 @@
 //! side of a triangle it is on: the cloth is kept on the side it came from by the crossing
 //! test ([`TriMesh::first_crossing`]) instead.
 //!
-//! *Thin* vertices are where the mesh is thinner than any cloth is fine: the vertices of the
-//! boundary of an open mesh and those where an incident face turns more than about 73 degrees
-//! away from the vertex's pseudo-normal (the tip of an ear or a cone, the ridge of a fin). The
-//! cloth tests its triangles against them (`collide/contact.rs`), so a feature narrower than
-//! the cloth's particle spacing cannot pass between its particles.
+//! A mesh's vertices are also tested against the cloth's triangles (`collide/vertex_contacts.rs`),
+//! so that a feature narrower than the cloth's particle spacing (an ear, a fin, the curve of a
+//! head under a coarse sheet) cannot pass between its particles.
 //!
 //! The hierarchy's boxes and nodes are in `tree.rs`, its build and its queries in `bvh.rs`;
 //! the triangle-level queries and the pseudo-normals are here.
@@ -34,18 +32,13 @@ mod tree;
 pub(crate) use tree::Aabb;
 use tree::Node;
 
-/// Cosine of the largest angle between an incident face's normal and a vertex's pseudo-normal
-/// for the vertex to count as smooth (not thin): about 73 degrees.
-const THIN_COSINE: f32 = 0.3;
-
 /// A triangle mesh with a bounding-volume hierarchy (median split along the longest axis of
 /// the triangle centroids), for closest-point and crossing queries, with the pseudo-normals
 /// that tell inside from outside on a closed mesh: the closest feature's (face, edge or
 /// vertex) angle-weighted normal says which side a point is on. A mesh is closed when every
 /// edge joins exactly two triangles running along it in opposite directions; an open one has
-/// no inside. Its *thin* vertices (an open rim, a tip or ridge where an incident face turns
-/// more than about 73 degrees from the vertex's normal) are tested against the cloth's
-/// triangles, so a feature finer than the cloth cannot pass between its particles.
+/// no inside. Its vertices are tested against the cloth's triangles, so a feature finer than
+/// the cloth cannot pass between its particles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
     vertices: Vec<Vec3A>,
@@ -58,8 +51,6 @@ pub struct TriMesh {
     vertex_normals: Vec<Vec3A>,
     /// Every edge joins exactly two triangles running along it in opposite directions.
     closed: bool,
-    /// The thin vertices, sorted.
-    thin_vertices: Vec<u32>,
     nodes: Vec<Node>,
 }
 
@@ -143,7 +134,6 @@ impl TriMesh {
             edge_normals: Vec::new(),
             vertex_normals: Vec::new(),
             closed: false,
-            thin_vertices: Vec::new(),
             nodes: Vec::new(),
         };
         mesh.build();
@@ -157,33 +147,19 @@ impl TriMesh {
         self.closed
     }
 
-    /// The number of thin vertices (see [`TriMesh`]).
-    pub fn thin_vertex_count(&self) -> usize {
-        self.thin_vertices.len()
-    }
-
-    /// The thin vertices' positions, in the mesh's frame.
-    pub(crate) fn thin_vertices(&self) -> impl ExactSizeIterator<Item = Vec3A> + '_ {
-        self.thin_vertices
-            .iter()
-            .map(|&v| self.vertices[v as usize])
-    }
-
-    /// The edge and vertex pseudo-normals, whether the mesh is closed, its thin vertices.
+    /// The edge and vertex pseudo-normals, and whether the mesh is closed.
     fn find_pseudo_normals(&mut self) {
         use std::collections::HashMap;
         // Directed edges: how many triangles run along each.
         let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
-        let mut edge_sums: HashMap<(u32, u32), (Vec3A, u32)> = HashMap::new();
+        let mut edge_sums: HashMap<(u32, u32), Vec3A> = HashMap::new();
         let mut vertex_sums = vec![Vec3A::ZERO; self.vertices.len()];
         for (t, tri) in self.triangles.iter().enumerate() {
             let n = self.normals[t];
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 *directed.entry((a, b)).or_default() += 1;
-                let sum = edge_sums.entry((a.min(b), a.max(b))).or_default();
-                sum.0 += n;
-                sum.1 += 1;
+                *edge_sums.entry((a.min(b), a.max(b))).or_default() += n;
                 // The angle at corner k.
                 let p = self.vertices[a as usize];
                 let e1 = self.vertices[b as usize] - p;
@@ -197,13 +173,6 @@ impl TriMesh {
         self.closed = directed
             .iter()
             .all(|(&(a, b), &count)| count == 1 && directed.get(&(b, a)) == Some(&1));
-        let mut boundary = vec![false; self.vertices.len()];
-        for (&(a, b), &(_, count)) in &edge_sums {
-            if count != 2 {
-                boundary[a as usize] = true;
-                boundary[b as usize] = true;
-            }
-        }
         self.vertex_normals = vertex_sums
             .iter()
             .map(|s| s.try_normalize().unwrap_or(Vec3A::ZERO))
@@ -216,27 +185,10 @@ impl TriMesh {
                 [0, 1, 2].map(|k| {
                     let (a, b) = (tri[k], tri[(k + 1) % 3]);
                     edge_sums[&(a.min(b), a.max(b))]
-                        .0
                         .try_normalize()
                         .unwrap_or(self.normals[t])
                 })
             })
-            .collect();
-        // A vertex is thin where an incident face turns far from its pseudo-normal.
-        let mut thin = boundary;
-        for (t, tri) in self.triangles.iter().enumerate() {
-            for &v in tri {
-                if self.vertex_normals[v as usize].dot(self.normals[t]) < THIN_COSINE {
-                    thin[v as usize] = true;
-                }
-            }
-        }
-        let mut used = vec![false; self.vertices.len()];
-        for &v in self.triangles.iter().flatten() {
-            used[v as usize] = true;
-        }
-        self.thin_vertices = (0..self.vertices.len() as u32)
-            .filter(|&v| thin[v as usize] && used[v as usize])
             .collect();
     }
 }

@@ -11,6 +11,7 @@ mod common;
 mod drape;
 mod flag;
 mod hanging;
+mod mesh_drop;
 mod sheet_drop;
 
 pub use collisions::{Collisions, CollisionsRun};
@@ -18,4 +19,5 @@ pub use common::{DENSITY, FRAME_RATE, GRAVITY, lowest_height, median};
 pub use drape::{Drape, DrapeRun};
 pub use flag::{Flag, FlagRun};
 pub use hanging::{HangingCloth, SceneRun, Trajectory};
+pub use mesh_drop::{MeshDrop, MeshDropRun, read_obj};
 pub use sheet_drop::{SheetDrop, SheetDropRun, closest_non_adjacent};
