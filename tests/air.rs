@@ -316,6 +316,7 @@ fn a_cloth_carried_by_the_frame_it_follows_feels_the_air_it_moves_through() {
         linear_velocity: u.into(),
         angular_velocity: Vec3A::ZERO,
         jumped: false,
+        sweep_start: start,
     };
     carried.follow_frame(&frame, 0.0);
     world.step(&settings, Vec3::ZERO, DT).unwrap();

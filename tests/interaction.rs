@@ -5,7 +5,7 @@ use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
     ClothModel, ClothSolver, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
 };
-use bevy_drape::interact::pick::pick_particle;
+use bevy_drape::interact::pick::{drag_point, pick_particle};
 use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth, lowest_height};
 
 const DT: f32 = 1.0 / FRAME_RATE;
@@ -126,6 +126,55 @@ fn a_ray_through_a_particle_picks_it_and_a_ray_that_misses_picks_nothing() {
     assert!(pick_particle(&positions, Vec3::new(2.0, 3.0, 0.1), Vec3::NEG_Y, 0.03).is_none());
     assert!(pick_particle(&positions, Vec3::new(0.2, 3.0, 0.1), Vec3::Y, 0.03).is_none());
     assert!(pick_particle(&positions, Vec3::new(0.2, 3.0, 0.1), Vec3::ZERO, 0.03).is_none());
+}
+
+#[test]
+fn a_drag_moves_the_particle_in_the_plane_through_its_grab_point_facing_the_camera() {
+    // Random cameras looking at random grab points, the cursor's ray through random points
+    // of the view: the drag point lies on the ray and in the plane through the grab point at
+    // right angles to the view, so it keeps the depth the particle was grabbed at.
+    let mut rng = crate::common::Rng(17);
+    let mut checked = 0;
+    for _ in 0..500 {
+        let mut v = || {
+            Vec3::new(
+                rng.range(-3.0, 3.0),
+                rng.range(-3.0, 3.0),
+                rng.range(-3.0, 3.0),
+            )
+        };
+        let (eye, anchor, aim, cursor) = (v(), v(), v() * 0.1, v());
+        if (anchor + aim - eye).length() < 0.1 {
+            continue;
+        }
+        let view = (anchor + aim - eye).normalize();
+        let direction = cursor - eye;
+        match drag_point(eye, direction, anchor, view) {
+            Some(p) => {
+                // On the ray, in front of the eye, at the grab point's depth.
+                // (Relative to the distance: a ray nearly along the plane meets it far away.)
+                let along = (p - eye).dot(direction.normalize());
+                let tolerance = 1e-4 * (1.0 + along);
+                assert!(along >= 0.0);
+                let off = (p - eye).reject_from(direction).length();
+                assert!(off < tolerance, "{p} {off} m off the ray");
+                let depth = (p - eye).dot(view) - (anchor - eye).dot(view);
+                assert!(depth.abs() < tolerance, "{p} {depth} m off the plane");
+                checked += 1;
+            }
+            // Only a ray that points away from the plane (or along it) misses it.
+            None => assert!(direction.dot(view) * (anchor - eye).dot(view) <= 1e-6),
+        }
+    }
+    assert!(checked > 200, "{checked}");
+    // Straight through the grab point, the point is the grab point; along the plane, none.
+    let eye = Vec3::new(0.0, 1.0, 5.0);
+    let anchor = Vec3::new(0.3, 1.2, 0.0);
+    let p = drag_point(eye, anchor - eye, anchor, Vec3::NEG_Z).unwrap();
+    assert!(p.distance(anchor) < 1e-5);
+    assert!(drag_point(eye, Vec3::X, anchor, Vec3::NEG_Z).is_none());
+    assert!(drag_point(eye, Vec3::X, anchor, Vec3::ZERO).is_none());
+    assert!(drag_point(Vec3::NAN, Vec3::NEG_Z, anchor, Vec3::NEG_Z).is_none());
 }
 
 #[test]

@@ -106,6 +106,7 @@ fn a_cloth_feels_the_inertia_share_of_its_frame_motion_and_keeps_it_when_the_fra
                 linear_velocity: linear.into(),
                 angular_velocity: Vec3::ZERO.into(),
                 jumped: false,
+                sweep_start: pose(at),
             };
             at = next;
             sim.follow_frame(&frame, inertia);

@@ -38,23 +38,26 @@ fn the_poncho_stays_on_the_character_in_every_motion() {
             motion.name(),
             run.travelled
         );
+        // The scene's figure: no edge stretched past 1% in any step after the first second.
+        assert!(
+            run.strain_max_after_first_second <= 0.01,
+            "{}: an edge stretched {:.2}% in a step",
+            motion.name(),
+            run.strain_max_after_first_second * 100.0
+        );
     }
 }
 
 #[test]
 fn the_poncho_holds_through_the_hard_motions_at_the_default_speed_limit() {
-    // Sprints with dead stops, hops, setting off at a run, turning round at a run, carried on
-    // a platform: after the first second no step stretches an edge past 2%, the centroid stays
-    // within 0.3 m of the chest (`check`). Without the speed limit (`--speed-limit none` in
-    // the scenes runner) the sprint reaches 11.6% and the hop 7.5%.
+    // Sprints with dead stops, hops, setting off at a run, turning round and zigzagging at a
+    // run (turns past the teleport angle in one step: jumps), carried on a platform: after the
+    // first second no step stretches an edge past 2%, the centroid stays within 0.3 m of the
+    // chest (`check`). Without the speed limit (`--speed-limit none` in the scenes runner) the
+    // sprint reaches 11.6% and the hop 7.5%; with the cloth and the proxies standing still
+    // through a jump's step (the jump's motion not swept), the zigzag 10.7%.
     let margin = BoneColliders::humanoid().margin;
-    for motion in [
-        CharacterMotion::Sprint,
-        CharacterMotion::Hop,
-        CharacterMotion::SetOff,
-        CharacterMotion::TurnAround,
-        CharacterMotion::Carried,
-    ] {
+    for motion in CharacterMotion::HARD {
         let run = ten_seconds_of(motion);
         if let Err(why) = run.check(margin) {
             panic!("{why}");

@@ -9,9 +9,11 @@
 //! (second order, `3/2 v(t - h/2) - 1/2 v(t - 3h/2)`), so a turning or accelerating frame's
 //! velocity is not half a step late. A pose
 //! change larger than a [`Teleport`] threshold is a jump, not motion: the step is marked
-//! [`FrameStep::jumped`] and keeps the velocity of the step before (the motion goes on where
-//! the frame reappears); a collider that jumped starts the step where it ends, so nothing is
-//! swept through the space between.
+//! [`FrameStep::jumped`] and keeps the velocity of the step before, turned as the frame
+//! turned (the motion goes on where the frame reappears, in its new heading); what moves
+//! with a frame that jumped sweeps through the step from where the frame reappeared (`end`
+//! less the step's motion at those velocities, [`FrameStep::sweep_start`]), so nothing is
+//! swept through the space between and nothing stands still for a step either.
 //!
 //! A step also carries points, directions and poses with a fraction of its motion: how a
 //! cloth is carried along by the entity it follows (see
@@ -66,6 +68,10 @@ pub struct FrameStep {
     pub angular_velocity: Vec3A,
     /// Whether the frame jumped this step (a [`Teleport`]).
     pub jumped: bool,
+    /// Where something moving with the frame starts its sweep through the step: `start`, or
+    /// after a jump where the frame reappeared, `end` less the step's motion at the kept
+    /// velocities.
+    pub sweep_start: RigidPose,
 }
 
 impl FrameStep {
@@ -77,13 +83,8 @@ impl FrameStep {
             linear_velocity: Vec3A::ZERO,
             angular_velocity: Vec3A::ZERO,
             jumped: false,
+            sweep_start: pose,
         }
-    }
-
-    /// Where something moving with the frame starts its sweep through the step: `start`, or
-    /// `end` after a jump.
-    pub(crate) fn sweep_start(&self) -> RigidPose {
-        if self.jumped { self.end } else { self.start }
     }
 
     /// The velocity of the world point `p` moving with the frame, at the end of the step.
@@ -96,12 +97,22 @@ impl FrameStep {
     /// origin goes `fraction` of the way to its end. `1` maps `start` onto `end`, `0` is the
     /// identity.
     pub(crate) fn carry(&self, fraction: f32) -> RigidMap {
-        let turn = (self.end.rotation * self.start.rotation.inverse()).normalize();
+        Self::map_between(&self.start, &self.end, fraction)
+    }
+
+    /// The rigid map that moves the world with a jump: `start` onto
+    /// [`FrameStep::sweep_start`], where the frame reappeared.
+    pub(crate) fn jump_carry(&self) -> RigidMap {
+        Self::map_between(&self.start, &self.sweep_start, 1.0)
+    }
+
+    fn map_between(from: &RigidPose, to: &RigidPose, fraction: f32) -> RigidMap {
+        let turn = (to.rotation * from.rotation.inverse()).normalize();
         let rotation = Quat::IDENTITY.slerp(turn, fraction).normalize();
         RigidMap {
             rotation,
-            pivot: self.start.translation,
-            to: self.start.translation.lerp(self.end.translation, fraction),
+            pivot: from.translation,
+            to: from.translation.lerp(to.translation, fraction),
         }
     }
 }
@@ -161,11 +172,23 @@ impl FrameTracker {
             Some(last) => {
                 let start = last.end;
                 if teleport.is_some_and(|t| t.is_jump(&start, &pose)) {
+                    // The motion goes on in the frame's new heading: the velocities of the
+                    // step before, turned as the frame turned, over the whole step.
+                    let turn = (pose.rotation * start.rotation.inverse()).normalize();
+                    let linear = turn * last.linear_velocity;
+                    let angular = turn * last.angular_velocity;
+                    let sweep_start = RigidPose {
+                        translation: pose.translation - linear * dt,
+                        rotation: (Quat::from_scaled_axis((-angular * dt).into()) * pose.rotation)
+                            .normalize(),
+                    };
                     let jump = FrameStep {
                         start,
                         end: pose,
+                        linear_velocity: linear,
+                        angular_velocity: angular,
                         jumped: true,
-                        ..last
+                        sweep_start,
                     };
                     (jump, None)
                 } else {
@@ -183,6 +206,7 @@ impl FrameTracker {
                         linear_velocity,
                         angular_velocity,
                         jumped: false,
+                        sweep_start: start,
                     };
                     (motion, Some((linear, angular)))
                 }
@@ -238,9 +262,11 @@ mod tests {
         assert!((walk.angular_velocity.y - 0.5).abs() < 1e-4);
         let jump = tracker.step(pose(10.12, 0.05), dt, Some(&teleport));
         assert!(jump.jumped);
-        assert_eq!(jump.sweep_start(), jump.end);
         assert_eq!(jump.start, walk.end);
         assert_eq!(jump.linear_velocity, walk.linear_velocity);
+        // It reappears a step's motion short of its end.
+        let reappeared = jump.end.translation - jump.linear_velocity * dt;
+        assert!(jump.sweep_start.translation.distance(reappeared) < 1e-5);
         // Without a threshold the same change is motion.
         let mut free = FrameTracker::default();
         free.step(pose(0.12, 0.05), dt, None);
@@ -249,6 +275,12 @@ mod tests {
         // A turn past 60 degrees is a jump too.
         let turned = tracker.step(pose(10.12, 0.05 + 1.2), dt, Some(&teleport));
         assert!(turned.jumped);
+        // Its kept velocity turned with it.
+        let expected = Quat::from_rotation_y(1.2) * walk.linear_velocity;
+        assert!(
+            turned.linear_velocity.distance(expected) < 1e-4,
+            "{turned:?}"
+        );
     }
 
     #[test]
@@ -349,7 +381,11 @@ mod tests {
             linear_velocity: Vec3A::ZERO,
             angular_velocity: Vec3A::ZERO,
             jumped: true,
+            sweep_start: pose(1.5, 0.7),
         };
+        let jump = step.jump_carry().pose(&step.start);
+        assert!(jump.translation.distance(step.sweep_start.translation) < 1e-5);
+        assert!(jump.rotation.angle_between(step.sweep_start.rotation) < 1e-3);
         let whole = step.carry(1.0).pose(&step.start);
         assert!(whole.translation.distance(step.end.translation) < 1e-5);
         assert!(whole.rotation.angle_between(step.end.rotation) < 1e-3);

@@ -141,9 +141,9 @@ fn gather_colliders(
                 return Ok(None);
             };
             // The pose change over the step; after a jump (a teleport) the collider starts
-            // where it ends instead of sweeping through the space between.
+            // where it reappeared instead of sweeping through the space between.
             let motion = state.motion.step(end, dt, teleport.as_ref());
-            let start = motion.sweep_start();
+            let start = motion.sweep_start;
             let (linear, angular) = if let Some(k) = kinematic {
                 (Vec3A::from(k.linear), Vec3A::from(k.angular))
             } else if let Some(a) = animated {

@@ -274,6 +274,7 @@ mod tests {
             linear_velocity: Vec3A::ZERO,
             angular_velocity: Vec3A::ZERO,
             jumped: false,
+            sweep_start: start,
         };
         let drawn = RigidPose {
             translation: Vec3A::new(3.0, 0.0, -1.0),

@@ -4,11 +4,10 @@
 
 use bevy::camera::Camera;
 use bevy::math::Vec3;
-use bevy::math::primitives::InfinitePlane3d;
 use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 
-use super::pick::pick_particle;
+use super::pick::{drag_point, pick_particle};
 use crate::cloth::plugin::ClothSimulation;
 
 /// The drag in progress, if any (read it to keep camera controls still while dragging).
@@ -94,11 +93,11 @@ fn drag_cloth(
         }
     }
     if let Some((entity, _, anchor)) = drag.held {
-        let facing = InfinitePlane3d::new(camera_transform.forward());
-        if let Some(distance) = ray.intersect_plane(anchor, facing)
+        let view = *camera_transform.forward();
+        if let Some(point) = drag_point(ray.origin, *ray.direction, anchor, view)
             && let Ok((_, mut simulation)) = cloths.get_mut(entity)
         {
-            simulation.solver_mut().drag_to(ray.get_point(distance));
+            simulation.solver_mut().drag_to(point);
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Ray picking of particles.
+//! Ray picking of particles, and the plane a picked particle is dragged in.
 
 use bevy::math::{Vec3, Vec3A};
 
@@ -58,4 +58,19 @@ pub fn pick_particle(
         }
     }
     best
+}
+
+/// Where a drag takes the particle held: the point where the ray from `origin` along
+/// `direction` meets the drag plane, the plane through `anchor` (where the particle was
+/// grabbed) facing `view` (the camera's forward direction), so the particle follows the
+/// cursor at the depth it was grabbed at. `None` for a ray along the plane, one pointing away
+/// from it, or non-finite input.
+pub fn drag_point(origin: Vec3, direction: Vec3, anchor: Vec3, view: Vec3) -> Option<Vec3> {
+    let (dir, normal) = (direction.try_normalize()?, view.try_normalize()?);
+    let approach = dir.dot(normal);
+    if !(origin.is_finite() && anchor.is_finite()) || approach.abs() < 1e-6 {
+        return None;
+    }
+    let distance = (anchor - origin).dot(normal) / approach;
+    (distance >= 0.0 && distance.is_finite()).then(|| origin + dir * distance)
 }

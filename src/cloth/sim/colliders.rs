@@ -41,14 +41,19 @@ impl ClothSolver {
     /// The colliders are seen in the same way: their start poses are carried too and
     /// `s` times the frame's velocity field (`v + omega x r`) is taken off theirs. A jump
     /// ([`FrameStep::jumped`], a teleport) carries the cloth with all of it, whatever the
-    /// inertia; the colliders then start where they end already.
+    /// inertia, to where the frame reappeared ([`FrameStep::sweep_start`]); the colliders
+    /// then start there already.
     pub fn follow_frame(&mut self, frame: &FrameStep, inertia: f32) {
         let s = if inertia.is_finite() {
             1.0 - inertia.clamp(0.0, 1.0)
         } else {
             0.0
         };
-        let map = frame.carry(if frame.jumped { 1.0 } else { s });
+        let map = if frame.jumped {
+            frame.jump_carry()
+        } else {
+            frame.carry(s)
+        };
         self.carried = (s > 0.0 && !frame.jumped).then_some((*frame, s));
         if !(map.rotation.is_finite() && map.to.is_finite() && map.pivot.is_finite()) {
             return;

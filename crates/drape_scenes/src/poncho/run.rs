@@ -97,6 +97,7 @@ struct S3Line {
     deepest_penetration: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
+    worst_step: usize,
     strain_max_after_first_second: f32,
     step_max_stretch_median: f32,
     step_max_compression_median: f32,
@@ -151,6 +152,7 @@ impl PonchoRun {
             deepest_penetration: self.deepest_penetration,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
+            worst_step: self.worst_step(),
             strain_max_after_first_second: self.strain_max_after_first_second,
             step_max_stretch_median: median_f32(&self.step_max_stretch),
             step_max_compression_median: median_f32(&self.step_max_compression),
@@ -200,6 +202,17 @@ impl PonchoRun {
     /// The largest strain of any step.
     pub fn step_strain_max(&self) -> f32 {
         self.step_max_strain.iter().copied().fold(0.0, f32::max)
+    }
+
+    /// The fixed step (counted from 1) whose strain is [`PonchoRun::step_strain_max`]: run
+    /// the scene for that many frames to look at it (0 if no step was measured).
+    pub fn worst_step(&self) -> usize {
+        let settle = self.steps.saturating_sub(self.step_max_strain.len() as u32) as usize;
+        self.step_max_strain
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(i, _)| settle + i + 1)
     }
 
     /// The strain that fraction `q` of all edge samples are at or below (to within
