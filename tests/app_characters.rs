@@ -103,30 +103,41 @@ fn a_skeleton_plays_a_clip_file_poses_its_bones_and_publishes_their_velocities()
     );
 }
 
-#[test]
-fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
-    let mut app = app();
-    let clip = app
-        .world_mut()
+/// The wrist: the end of the forearm, in its frame.
+const WRIST: Vec3 = Vec3::new(0.0, -0.25, 0.0);
+
+/// The walk clip, added to the App's clips.
+fn walk_clip(app: &mut App) -> Handle<ClipAsset> {
+    app.world_mut()
         .resource_mut::<Assets<ClipAsset>>()
         .add(ClipAsset(
             ClipDesc::from_ron(include_str!("../assets/clips/walk.clip.ron")).unwrap(),
-        ));
-    let rig = std::sync::Arc::new(humanoid());
-    let marker = app
-        .world_mut()
-        .spawn(Transform::from_xyz(-0.3, 1.2, 2.35))
-        .id();
-    let goal = |end: &str, target| IkGoal {
+        ))
+}
+
+/// A goal putting the wrist at the end of the three-bone chain ending at `end` on `target`.
+fn wrist_goal(end: &str, target: IkTarget) -> IkGoal {
+    IkGoal {
         end_bone: end.into(),
         length: 3,
-        effector: Vec3::new(0.0, -0.25, 0.0),
+        effector: WRIST,
         target,
         settings: IkSettings::default(),
         weight: 1.0,
         max_speed: IkGoal::DEFAULT_MAX_SPEED,
         joint_limits: Vec::new(),
-    };
+    }
+}
+
+#[test]
+fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
+    let mut app = app();
+    let clip = walk_clip(&mut app);
+    let rig = std::sync::Arc::new(humanoid());
+    let marker = app
+        .world_mut()
+        .spawn(Transform::from_xyz(-0.3, 1.2, 2.35))
+        .id();
     let character = app
         .world_mut()
         .spawn((
@@ -136,9 +147,9 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
                 goals: vec![
                     // Entity and point targets, 2 m forward of the origin where the character
                     // stands.
-                    goal("forearm_r", IkTarget::Entity(marker)),
-                    goal("forearm_l", IkTarget::Point(Vec3::new(0.35, 1.1, 2.3))),
-                    goal("tail", IkTarget::Point(Vec3::ZERO)),
+                    wrist_goal("forearm_r", IkTarget::Entity(marker)),
+                    wrist_goal("forearm_l", IkTarget::Point(Vec3::new(0.35, 1.1, 2.3))),
+                    wrist_goal("tail", IkTarget::Point(Vec3::ZERO)),
                 ],
                 results: Vec::new(),
             },
@@ -162,8 +173,75 @@ fn inverse_kinematics_puts_both_wrists_on_their_targets_on_top_of_the_clip() {
         let result = ik.results[g].unwrap();
         assert!(result.reached, "{bone}: {result:?}");
         let b = pose.bones[rig.find(bone).unwrap()];
-        let wrist = b.translation + b.rotation * Vec3::new(0.0, -0.25, 0.0) + Vec3::Z * 2.0;
+        let wrist = b.translation + b.rotation * WRIST + Vec3::Z * 2.0;
         assert!(wrist.distance(target) < 1e-3, "{bone}: {wrist} vs {target}");
+    }
+}
+
+#[test]
+fn inverse_kinematics_keeps_the_wrist_on_the_ik_circle_examples_moving_target() {
+    // The `ik_circle` example's path: the humanoid walks in place by its clip while its right
+    // wrist follows a point going round a circle in front of the right shoulder (centre
+    // (-0.22, 1.3, 0.32), a turn in 2 s), here at random radii and starting phases: once the
+    // arm has reached the circle, every fixed step ends with the wrist on the step's target.
+    const CENTRE: Vec3 = Vec3::new(-0.22, 1.3, 0.32);
+    const PERIOD: f32 = 2.0;
+    let mut rng = common::Rng(29);
+    for _ in 0..3 {
+        let (radius, phase) = (rng.range(0.03, 0.09), rng.range(0.0, PERIOD));
+        let target_at = |t: f32| {
+            let a = std::f32::consts::TAU * (t + phase) / PERIOD;
+            CENTRE + Vec3::new(a.cos(), a.sin(), 0.0) * radius
+        };
+        let mut app = app();
+        let clip = walk_clip(&mut app);
+        let rig = std::sync::Arc::new(humanoid());
+        let character = app
+            .world_mut()
+            .spawn((
+                Skeleton { rig: rig.clone() },
+                ClipPlayer::new(clip),
+                InverseKinematics {
+                    goals: vec![wrist_goal("forearm_r", IkTarget::Point(target_at(0.0)))],
+                    results: Vec::new(),
+                },
+                Transform::default(),
+            ))
+            .id();
+        let forearm = rig.find("forearm_r").unwrap();
+        let (mut worst, mut measured, mut reached) = (0.0f32, 0, 0);
+        for step in 0..192 {
+            // One 1/64 s fixed step per update: the target of the step it ends.
+            let t = (step + 1) as f32 / 64.0;
+            let target = target_at(t);
+            if let Some(mut ik) = app.world_mut().get_mut::<InverseKinematics>(character) {
+                ik.goals[0].target = IkTarget::Point(target);
+            }
+            app.update();
+            let b = app.world().get::<SkeletonPose>(character).unwrap().bones[forearm];
+            let wrist = b.translation + b.rotation * WRIST;
+            let ik = app.world().get::<InverseKinematics>(character).unwrap();
+            if t > 0.5 {
+                let result = ik.results[0].expect("the goal is solved");
+                measured += 1;
+                // Where the solver says it reached the step's target, the wrist is on it.
+                if result.reached {
+                    reached += 1;
+                    worst = worst.max(wrist.distance(target));
+                }
+            }
+        }
+        // The circle is within the arm's reach through most of the walk (the shoulder swings
+        // part of it out of reach, more of a larger circle: 139 of 160 steps reach it at
+        // 0.08 m; the example shows the trace leaving the circle there).
+        assert!(
+            reached * 4 >= measured * 3,
+            "radius {radius}: reached in {reached} of {measured} steps"
+        );
+        assert!(
+            worst < 1e-3,
+            "radius {radius}, phase {phase}: the wrist {worst} m off the circle"
+        );
     }
 }
 

@@ -1,11 +1,15 @@
 //! Mass-spring and hybrid cloth against analytic results: the oscillator, its damping, the
-//! explicit stability bound, automatic substeps, and hybrid against mass-spring on S1.
+//! explicit stability bound, automatic substeps, hybrid against mass-spring on S1, the
+//! hybrid's springs on a triangle mesh, and mass-spring's contact velocities.
+
+use crate::common;
 
 use std::f32::consts::{PI, TAU};
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::{
-    ClothModel, ClothSolver, DivergenceBounds, SolverMethod, SolverSettings, SpringConstants,
+    ClothModel, ClothSolver, DivergenceBounds, GridDesc, SolverMethod, SolverSettings,
+    SpringConstants, SpringSettings,
 };
 use drape_scenes::scenes::{DENSITY, FRAME_RATE, GRAVITY, HangingCloth, lowest_height};
 
@@ -346,4 +350,248 @@ fn the_hybrid_holds_its_structural_edges_only_unless_its_method_asks_for_long_ra
     let (plain, extra) = (a.strain().max, c.strain().max);
     println!("hybrid at N = 16, 96 substeps: strain {plain:.4} alone, {extra:.4} with long range");
     assert!(extra < plain, "{extra} against {plain}");
+}
+
+/// An irregular triangulation of a 1 m square, flat at 1 m: an `n` x `n` lattice, every
+/// vertex but the border's jittered by up to a quarter spacing, each quad cut along a random
+/// diagonal. No grid, and no quad diagonals (no right angles).
+fn irregular_sheet(rng: &mut common::Rng, n: u32) -> ClothModel {
+    let spacing = 1.0 / (n - 1) as f32;
+    let index = |i: u32, j: u32| j * n + i;
+    let positions: Vec<Vec3> = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k % n, k / n);
+            let border = i == 0 || j == 0 || i == n - 1 || j == n - 1;
+            let jitter = if border { 0.0 } else { 0.25 * spacing };
+            Vec3::new(
+                i as f32 * spacing + rng.range(-jitter, jitter),
+                1.0,
+                j as f32 * spacing + rng.range(-jitter, jitter),
+            )
+        })
+        .collect();
+    let mut indices = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let [a, b, c, d] = [
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            ];
+            if rng.uniform() < 0.5 {
+                indices.extend([a, c, b, a, d, c]);
+            } else {
+                indices.extend([a, d, b, b, d, c]);
+            }
+        }
+    }
+    ClothModel::from_triangles(&positions, &indices, DENSITY).unwrap()
+}
+
+/// The hybrid on a triangle mesh that is not a grid (`SpringSet::new`'s mesh springs): its
+/// explicit shear and bend springs exist and act. A rolled sheet, released, unrolls with
+/// either family alone and stays rolled with neither.
+#[test]
+fn the_hybrids_shear_and_bend_springs_unroll_a_triangle_mesh() {
+    let model = irregular_sheet(&mut common::Rng(7), 9);
+    assert_eq!(model.grid, None);
+    assert!(model.warnings.is_empty(), "{:?}", model.warnings);
+    let rolled = || {
+        let mut sim = ClothSolver::new(model.clone());
+        common::roll(&mut sim, 0.4);
+        sim
+    };
+    // The mesh's springs (`mass_spring.rs`): a bend spring per bending pair, and shear
+    // springs on the far diagonals across the shared edges, besides one per mesh edge.
+    let mut sim = rolled();
+    let springs = sim.springs_mut();
+    assert_eq!(springs.angle_springs.len(), model.bending_pairs.len());
+    assert_eq!(springs.structural_edges.len(), model.edges.len());
+    let shear = springs.springs.len() - springs.structural_edges.len();
+    assert!(
+        shear * 2 > model.bending_pairs.len(),
+        "{shear} shear springs"
+    );
+
+    // Released at rest without gravity: the hybrid holds its edges with constraints, so only
+    // its shear and bend springs can unroll it. The smallest mean bending error over 1 s, as a
+    // fraction of the rolled sheet's.
+    let start = common::bending_error(&rolled());
+    let unrolled = |shear: f32, bend: f32| {
+        let mut settings = SolverSettings {
+            method: SolverMethod::Hybrid { long_range: false },
+            auto_substeps: true,
+            ..Default::default()
+        };
+        settings.springs.shear.stiffness = shear;
+        settings.springs.bend.stiffness = bend;
+        let mut sim = rolled();
+        let mut least = f32::MAX;
+        for _ in 0..60 {
+            sim.step(&settings, Vec3::ZERO, 1.0 / FRAME_RATE).unwrap();
+            least = least.min(common::bending_error(&sim) / start);
+        }
+        assert!(sim.strain().max < 0.01, "{}", sim.strain().max);
+        least
+    };
+    let defaults = SpringSettings::default();
+    let neither = unrolled(0.0, 0.0);
+    let shear_alone = unrolled(defaults.shear.stiffness, 0.0);
+    let bend_alone = unrolled(0.0, defaults.bend.stiffness);
+    println!(
+        "least bending error over 1 s of the rolled sheet's {start:.3} rad: no springs \
+         {neither:.3}, shear springs {shear_alone:.3}, bend springs {bend_alone:.3}"
+    );
+    assert!(
+        neither > 0.9,
+        "without springs the sheet unrolled to {neither}"
+    );
+    assert!(shear_alone < 0.5, "the shear springs left {shear_alone}");
+    assert!(bend_alone < 0.5, "the bend springs left {bend_alone}");
+}
+
+/// A quad pattern cut into triangles (as a modelling tool exports an OBJ; not a grid): the
+/// hybrid holds its threads with constraints and its quad diagonals with shear springs, so
+/// a sheet sheared in its plane springs back, and without the shear springs it keeps its shear
+/// (with the diagonals as constraints, as before, it could not shear at all).
+#[test]
+fn the_hybrid_shears_a_quad_pattern_mesh_with_springs_not_constraints() {
+    // A 7 x 7 quad pattern with random cell sizes, each quad split along a random diagonal.
+    let mut rng = common::Rng(11);
+    let n = 7u32;
+    let mut xs = vec![0.0f32];
+    let mut zs = vec![0.0f32];
+    for _ in 1..n {
+        xs.push(xs.last().unwrap() + rng.range(0.05, 0.1));
+        zs.push(zs.last().unwrap() + rng.range(0.05, 0.1));
+    }
+    let positions: Vec<Vec3> = (0..n * n)
+        .map(|k| Vec3::new(xs[(k % n) as usize], 0.0, zs[(k / n) as usize]))
+        .collect();
+    let mut indices = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let (a, b, c, d) = (
+                j * n + i,
+                j * n + i + 1,
+                (j + 1) * n + i + 1,
+                (j + 1) * n + i,
+            );
+            if rng.uniform() < 0.5 {
+                indices.extend([a, d, b, b, d, c]);
+            } else {
+                indices.extend([a, d, c, a, c, b]);
+            }
+        }
+    }
+    let model = ClothModel::from_triangles(&positions, &indices, DENSITY).unwrap();
+    assert_eq!(model.grid, None);
+    let diagonals = model
+        .edges
+        .iter()
+        .filter(|e| e.kind == bevy_drape::cloth::EdgeKind::Shear)
+        .count();
+    assert_eq!(
+        diagonals,
+        ((n - 1) * (n - 1)) as usize,
+        "every quad's diagonal is a shear edge"
+    );
+    let mut sim = ClothSolver::new(model.clone());
+    let springs = sim.springs_mut();
+    assert_eq!(
+        springs.structural_edges.len(),
+        model.edges.len() - diagonals
+    );
+    assert!(
+        springs
+            .structural_edges
+            .iter()
+            .all(|e| e.kind == bevy_drape::cloth::EdgeKind::Structural)
+    );
+    // Sheared in its plane (x += 0.3 z) and released without gravity: the shear springs pull
+    // it back towards square, the threads' constraints alone do not.
+    let sheared = || {
+        let mut sim = ClothSolver::new(model.clone());
+        for p in &mut sim.state_mut().positions {
+            p.x += 0.3 * p.z;
+        }
+        let rest = sim.state().positions.clone();
+        sim.state_mut().previous_positions = rest;
+        sim
+    };
+    let shear_left = |shear: f32| {
+        let mut settings = SolverSettings {
+            method: SolverMethod::Hybrid { long_range: false },
+            auto_substeps: true,
+            ..Default::default()
+        };
+        settings.springs.shear.stiffness = shear;
+        let mut sim = sheared();
+        for _ in 0..240 {
+            sim.step(&settings, Vec3::ZERO, 1.0 / FRAME_RATE).unwrap();
+        }
+        // The angle between the first row and the first column, against a right angle
+        // (whatever the sheet turned as a whole).
+        let x = &sim.state().positions;
+        let row = x[(n - 1) as usize] - x[0];
+        let column = x[(n * (n - 1)) as usize] - x[0];
+        (row.angle_between(column) - std::f32::consts::FRAC_PI_2).abs()
+    };
+    let (without, with) = (
+        shear_left(0.0),
+        shear_left(SpringSettings::default().shear.stiffness),
+    );
+    // Sheared by atan(0.3) = 0.29 rad at the start.
+    println!("shear left after 4 s: {without:.3} rad without shear springs, {with:.3} with");
+    assert!(
+        without > 0.2,
+        "the threads alone unsheared it to {without} rad"
+    );
+    assert!(
+        with < 0.25 * without,
+        "the shear springs left {with} of {without} rad"
+    );
+}
+
+/// Mass-spring's contact velocity update (`ContactScratch::respond`): its velocities are its
+/// own, not derived from positions, so a sheet landing on the ground would keep falling into
+/// it (pushed back out every substep) without it. Every particle on the ground at the end of a
+/// step moves into it at under 1% of the landing speed.
+#[test]
+fn a_mass_spring_sheet_landing_on_the_ground_keeps_no_velocity_into_it() {
+    let height = 0.2;
+    let grid = GridDesc::square(0.5, 10, Vec3::new(-0.25, height, -0.25));
+    let mut sim = ClothSolver::new(ClothModel::grid(&grid, DENSITY).unwrap());
+    sim.set_colliders(&[bevy_drape::collide::SolverCollider::ground(
+        0.0,
+        Default::default(),
+    )])
+    .unwrap();
+    let settings = SolverSettings {
+        method: SolverMethod::MassSpring,
+        auto_substeps: true,
+        ..Default::default()
+    };
+    let landing = (2.0 * GRAVITY.length() * height).sqrt();
+    let (mut touching, mut fastest_in) = (0, 0.0f32);
+    for _ in 0..45 {
+        sim.step(&settings, GRAVITY, 1.0 / FRAME_RATE).unwrap();
+        let state = sim.state();
+        for (x, v) in state.positions.iter().zip(&state.velocities) {
+            if x.y <= settings.thickness + 1e-4 {
+                touching += 1;
+                fastest_in = fastest_in.max(-v.y);
+            }
+        }
+    }
+    println!(
+        "{touching} particle-steps on the ground, fastest into it {fastest_in:.2e} m/s \
+         (landing at {landing:.2} m/s)"
+    );
+    assert!(touching > 100, "the sheet landed");
+    assert!(
+        fastest_in < 0.01 * landing,
+        "a particle on the ground moves into it at {fastest_in} m/s"
+    );
 }

@@ -90,7 +90,8 @@ pub struct Tether {
     pub length: f32,
 }
 
-#[cfg(test)]
+// For the scalar batch kernels (`batch/scalar.rs`), built off `x86_64` and in the tests.
+#[cfg(any(test, not(all(target_arch = "x86_64", target_feature = "sse2"))))]
 /// Projects the unilateral tether constraint `|x_p - x_anchor| <= length` (stiffness 1).
 #[inline(always)]
 pub(crate) fn project_tether(x: &mut [Vec3A], w: &[f32], tether: &Tether) {

@@ -184,21 +184,22 @@ impl SpringSet {
         };
         let mut springs = Vec::new();
         let mut angle_springs = Vec::new();
-        let structural_edges: Vec<Edge>;
+        // The threads are structural (the hybrid's constraints); the diagonals of a grid or
+        // of a quad pattern (`EdgeKind::Shear`) are shear springs, never its constraints.
+        let structural_edges: Vec<Edge> = model
+            .edges
+            .iter()
+            .copied()
+            .filter(|e| e.kind == EdgeKind::Structural)
+            .collect();
+        springs.extend(
+            structural_edges
+                .iter()
+                .map(|e| spring(e.particles[0], e.particles[1], SpringFamily::Structural)),
+        );
         if let Some(grid) = model.grid {
             let (nx, nz) = (grid.x, grid.y);
             let index = |i: u32, j: u32| j * nx + i;
-            structural_edges = model
-                .edges
-                .iter()
-                .copied()
-                .filter(|e| e.kind == EdgeKind::Structural)
-                .collect();
-            springs.extend(
-                structural_edges
-                    .iter()
-                    .map(|e| spring(e.particles[0], e.particles[1], SpringFamily::Structural)),
-            );
             for j in 0..nz - 1 {
                 for i in 0..nx - 1 {
                     springs.push(spring(
@@ -224,12 +225,12 @@ impl SpringSet {
                 }
             }
         } else {
-            structural_edges = model.edges.clone();
             springs.extend(
                 model
                     .edges
                     .iter()
-                    .map(|e| spring(e.particles[0], e.particles[1], SpringFamily::Structural)),
+                    .filter(|e| e.kind == EdgeKind::Shear)
+                    .map(|e| spring(e.particles[0], e.particles[1], SpringFamily::Shear)),
             );
             let mut far: Vec<[u32; 2]> = model
                 .bending_pairs

@@ -38,7 +38,8 @@ pub struct StretchLimit {
     pub length: f32,
 }
 
-#[cfg(test)]
+// For the scalar batch kernels (`batch/scalar.rs`), built off `x86_64` and in the tests.
+#[cfg(any(test, not(all(target_arch = "x86_64", target_feature = "sse2"))))]
 /// Projects a stretch limit (stiffness 1; nothing happens while the pair is not stretched).
 #[inline(always)]
 pub(crate) fn project_stretch_limit(x: &mut [bevy::math::Vec3A], w: &[f32], limit: &StretchLimit) {

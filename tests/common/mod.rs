@@ -192,3 +192,40 @@ pub(crate) fn particles(app: &App, cloth: Entity) -> Vec<Vec3> {
         .map(|&p| p.into())
         .collect()
 }
+
+/// The signed dihedral angle, radians in (-pi, pi], of the triangles `(x0, x1, x2)` and
+/// `(x1, x0, x3)` of `x` for `particles = [x0, x1, x2, x3]` (a bending pair as
+/// `ClothModel::bending_pairs` lists it), computed here rather than by the solver.
+pub(crate) fn dihedral_angle(x: &[Vec3A], particles: [u32; 4]) -> f32 {
+    let [x0, x1, x2, x3] = particles.map(|i| Vec3::from(x[i as usize]));
+    let e = x1 - x0;
+    let m1 = e.cross(x2 - x0);
+    let m2 = (x0 - x1).cross(x3 - x1);
+    m1.cross(m2).dot(e.normalize()).atan2(m1.dot(m2))
+}
+
+/// The mean of `|theta - rest angle|` over the cloth's bending pairs, radians.
+pub(crate) fn bending_error(sim: &ClothSolver) -> f32 {
+    let pairs = &sim.model().bending_pairs;
+    let x = &sim.state().positions;
+    let total: f32 = pairs
+        .iter()
+        .map(|p| (dihedral_angle(x, p.particles) - p.rest_angle).abs())
+        .sum();
+    total / pairs.len() as f32
+}
+
+/// Rolls a cloth lying flat in a horizontal plane round a cylinder of `radius` with its axis
+/// along Z (lengths along X kept as arc lengths from the cloth's edge at the smallest X), and
+/// stops it.
+pub(crate) fn roll(sim: &mut ClothSolver, radius: f32) {
+    let state = sim.state_mut();
+    let start = state.positions.iter().map(|p| p.x).fold(f32::MAX, f32::min);
+    for p in &mut state.positions {
+        let angle = (p.x - start) / radius;
+        p.x = start + radius * angle.sin();
+        p.y += radius * (1.0 - angle.cos());
+    }
+    state.previous_positions.clone_from(&state.positions);
+    state.velocities.fill(Vec3A::ZERO);
+}

@@ -322,3 +322,120 @@ fn bad_pairs_are_left_out() {
     assert!((x[0].distance(x[1]) - 1.0).abs() < 1e-6);
     assert!(x.iter().all(|p| p.is_finite()));
 }
+
+/// The scalar kernels (`scalar.rs`, the sweep off `x86_64`) give the SIMD kernels' positions
+/// and multipliers on random lists of pairs (random particles, lengths and inverse masses,
+/// pins among them, many pairs on one particle so that batches wait): distances (XPBD, stiff
+/// and compliant, and PBD), limits and tethers.
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+#[test]
+fn the_scalar_kernels_match_the_simd_kernels_on_random_batches() {
+    let mut rng = crate::rng::Rng(0x5ca1_ab1e);
+    let mut compared = 0;
+    for _ in 0..20 {
+        let n = 8 + rng.below(120);
+        let x0: Vec<Vec3A> = (0..n).map(|_| Vec3A::from(rng.vec3(-1.0, 1.0))).collect();
+        let w: Vec<f32> = (0..n)
+            .map(|_| {
+                if rng.uniform() < 0.1 {
+                    0.0
+                } else {
+                    rng.range(0.2, 5.0)
+                }
+            })
+            .collect();
+        let count = n + rng.below(3 * n);
+        let pairs: Vec<[u32; 2]> = (0..count)
+            .map(|_| [rng.below(n) as u32, rng.below(n) as u32])
+            .collect();
+        let lengths: Vec<f32> = (0..count).map(|_| rng.range(0.05, 1.5)).collect();
+        let close = |simd: &[Vec3A], scalar: &[Vec3A], what: &str| {
+            for (p, q) in simd.iter().zip(scalar) {
+                assert!(p.distance(*q) < 2e-5, "{what}: SIMD {p} against scalar {q}");
+            }
+            assert!(
+                simd.iter().zip(&x0).any(|(p, q)| p.distance(*q) > 1e-3),
+                "{what}: nothing moved"
+            );
+        };
+
+        let mut batched = PairBatches::new(zipped(&pairs, &lengths), n, true);
+        batched.set_weights(&w);
+        let (batches, waits) = (batched.batches(), batched.waits());
+        let alpha_tilde = rng.range(0.01, 2.0);
+        for projection in [
+            Projection::Xpbd { alpha_tilde: 0.0 },
+            Projection::Xpbd { alpha_tilde },
+            Projection::Pbd { stiffness: 0.7 },
+        ] {
+            let (mut simd, mut scalar) = (x0.clone(), x0.clone());
+            let mut simd_lambdas = vec![Vec4::ZERO; batches.len()];
+            let mut scalar_lambdas = simd_lambdas.clone();
+            // Two sweeps: the second starts from the multipliers of the first.
+            for _ in 0..2 {
+                batched.project_distances(&mut simd_lambdas, &mut simd, projection);
+                // SAFETY: every index of the batches is below `n` (`PairBatches::new`), and
+                // there is one multiplier per batch.
+                unsafe {
+                    match projection {
+                        Projection::Xpbd { .. } => scalar::sweep_distances::<true>(
+                            batches,
+                            waits,
+                            &mut scalar_lambdas,
+                            &mut scalar,
+                            projection,
+                        ),
+                        Projection::Pbd { .. } => scalar::sweep_distances::<false>(
+                            batches,
+                            waits,
+                            &mut scalar_lambdas,
+                            &mut scalar,
+                            projection,
+                        ),
+                    }
+                }
+            }
+            close(&simd, &scalar, &format!("{projection:?}"));
+            for (batch, (l, r)) in batches.iter().zip(simd_lambdas.iter().zip(&scalar_lambdas)) {
+                for k in (0..LANES).filter(|&k| !batch.is_padding(k)) {
+                    assert!(
+                        (l[k] - r[k]).abs() <= 2e-5 * (1.0 + r[k].abs()),
+                        "{projection:?}: multiplier {} (SIMD) against {} (scalar)",
+                        l[k],
+                        r[k]
+                    );
+                }
+            }
+            compared += 1;
+        }
+
+        let (mut simd, mut scalar) = (x0.clone(), x0.clone());
+        batched.project_limits(&mut simd);
+        let xp: *mut [Vec3A] = scalar.as_mut_slice();
+        // SAFETY: as above; the limits read their `b` from the positions they move.
+        unsafe { scalar::sweep_limits::<true>(batches, waits, xp, xp) };
+        close(&simd, &scalar, "limits");
+
+        // Tethers to a few pins, read from an anchor list of their own.
+        let anchors: Vec<Vec3A> = (0..3).map(|_| Vec3A::from(rng.vec3(-1.0, 1.0))).collect();
+        let tethers: Vec<[u32; 2]> = (0..count)
+            .map(|_| [rng.below(n) as u32, rng.below(anchors.len()) as u32])
+            .collect();
+        let mut tethered = PairBatches::new(zipped(&tethers, &lengths), n, false);
+        tethered.set_weights(&w);
+        let (mut simd, mut scalar) = (x0.clone(), x0.clone());
+        tethered.project_tethers(&mut simd, &anchors);
+        // SAFETY: every particle index is below `n`, every anchor index below 3, and the
+        // anchors do not overlap the positions.
+        unsafe {
+            scalar::sweep_limits::<false>(
+                tethered.batches(),
+                tethered.waits(),
+                scalar.as_mut_slice(),
+                anchors.as_slice(),
+            );
+        }
+        close(&simd, &scalar, "tethers");
+    }
+    assert_eq!(compared, 60);
+}
