@@ -5,7 +5,9 @@
 use crate::common;
 
 use bevy::math::{Vec3, Vec3A};
-use bevy_drape::cloth::{ClothModel, ClothSolver, EdgeKind, GridDesc, SolverSettings};
+use bevy_drape::cloth::{
+    ClothModel, ClothSolver, EdgeKind, GridDesc, SolverMethod, SolverSettings,
+};
 use bevy_drape::error::{ClothError, ClothWarning};
 use common::{Rng, free_grid};
 use drape_scenes::scenes::{GRAVITY, HangingCloth};
@@ -227,6 +229,27 @@ fn bad_input_gives_typed_errors_and_warnings() {
         ..one_sweep
     };
     assert!(one_sweep_no_long_range.validate().is_ok());
+    // The panel's iterations slider starts at `fewest_iterations`: for every method, with and
+    // without the long-range attachments, that many validate and one fewer is refused.
+    for method in [
+        SolverMethod::Xpbd,
+        SolverMethod::Pbd { stiffness: 1.0 },
+        SolverMethod::MassSpring,
+        SolverMethod::Hybrid { long_range: false },
+        SolverMethod::Hybrid { long_range: true },
+    ] {
+        for long_range_attachments in [false, true] {
+            let mut settings = SolverSettings {
+                method,
+                long_range_attachments,
+                ..Default::default()
+            };
+            settings.iterations = settings.fewest_iterations();
+            assert!(settings.validate().is_ok(), "{settings:?}");
+            settings.iterations -= 1;
+            assert!(settings.validate().is_err(), "{settings:?}");
+        }
+    }
     // An exact edge solve without a step or an iteration is refused, and the step with it
     // leaves the cloth as it was.
     let no_solve = SolverSettings {

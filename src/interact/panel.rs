@@ -321,7 +321,7 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
             .text("substeps"),
     );
     // One sweep with long-range constraints gains energy: the settings refuse it.
-    let fewest = if solver.projects_long_range() { 2 } else { 1 };
+    let fewest = solver.fewest_iterations();
     solver.iterations = solver.iterations.max(fewest);
     ui.add(egui::Slider::new(&mut solver.iterations, fewest..=20).text("iterations"));
     match &mut solver.method {
