@@ -32,7 +32,7 @@
 //! face turns more than 73 degrees from the vertex's normal) the bunny's head came through
 //! the sheet's triangles by up to 10 mm and the sheet's edges cut 20 mm into it
 //! (`tests/mesh_colliders.rs`); with every vertex, neither, for about 1.4 times the step's
-//! cost on the bunny (2.2 to 3.1 ms per frame; see `docs/colliders.md`).
+//! cost on the bunny (2.2 to 3.0 ms per frame; see `docs/colliders.md`).
 
 use bevy::math::Vec3A;
 
@@ -112,28 +112,21 @@ impl MeshVertexContacts {
                 continue;
             };
             let reach = collider.margin + thickness;
-            // A box in the world, as a box in the collider's frame at the start and at the
-            // end of the step (grown to hold both).
-            let local = |b: &Aabb| {
-                let mut out = Aabb::EMPTY;
-                for corner in 0..8 {
-                    let p = Vec3A::new(
-                        if corner & 1 == 0 { b.min.x } else { b.max.x },
-                        if corner & 2 == 0 { b.min.y } else { b.max.y },
-                        if corner & 4 == 0 { b.min.z } else { b.max.z },
-                    );
-                    out = out
-                        .grown(collider.start.inverse_transform_point(p))
-                        .grown(collider.end.inverse_transform_point(p));
-                }
-                out.padded(reach)
+            let Some(path) = collider.swept_bounds(reach) else {
+                continue;
             };
-            if !local(&cloth).overlaps(&mesh.bounds()) {
+            if !path.overlaps(&cloth) {
                 continue;
             }
             for (t, b) in self.triangle_bounds.iter().enumerate() {
+                if !b.overlaps(&path) {
+                    continue;
+                }
+                // The triangle's box in the collider's frame, at the start and at the end of
+                // the step, grown by the reach.
+                let local = b.in_frames(&[collider.start, collider.end]).padded(reach);
                 self.found.clear();
-                mesh.vertices_in(&local(b), &mut self.found);
+                mesh.vertices_in(&local, &mut self.found);
                 self.found.sort_unstable();
                 self.found.dedup();
                 for &i in &self.found {

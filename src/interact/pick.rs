@@ -1,6 +1,7 @@
 //! Ray picking of particles, and the plane a picked particle is dragged in.
 
-use bevy::math::{Vec3, Vec3A};
+use bevy::math::primitives::InfinitePlane3d;
+use bevy::math::{Dir3, Ray3d, Vec3, Vec3A};
 
 /// A particle hit by a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,11 +67,10 @@ pub fn pick_particle(
 /// cursor at the depth it was grabbed at. `None` for a ray along the plane, one pointing away
 /// from it, or non-finite input.
 pub fn drag_point(origin: Vec3, direction: Vec3, anchor: Vec3, view: Vec3) -> Option<Vec3> {
-    let (dir, normal) = (direction.try_normalize()?, view.try_normalize()?);
-    let approach = dir.dot(normal);
-    if !(origin.is_finite() && anchor.is_finite()) || approach.abs() < 1e-6 {
-        return None;
-    }
-    let distance = (anchor - origin).dot(normal) / approach;
-    (distance >= 0.0 && distance.is_finite()).then(|| origin + dir * distance)
+    let ray = Ray3d::new(origin, Dir3::new(direction).ok()?);
+    let plane = InfinitePlane3d {
+        normal: Dir3::new(view).ok()?,
+    };
+    ray.plane_intersection_point(anchor, plane)
+        .filter(|p| p.is_finite())
 }

@@ -2,6 +2,8 @@
 
 use bevy::math::Vec3A;
 
+use crate::collide::shapes::RigidPose;
+
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Aabb {
@@ -40,6 +42,34 @@ impl Aabb {
             min: self.min - Vec3A::splat(by),
             max: self.max + Vec3A::splat(by),
         }
+    }
+
+    /// The box holding this (world) box's corners seen from each of `poses`: in their frames.
+    pub(crate) fn in_frames(&self, poses: &[RigidPose]) -> Self {
+        let mut out = Self::EMPTY;
+        for corner in 0..8 {
+            let p = Vec3A::new(
+                if corner & 1 == 0 {
+                    self.min.x
+                } else {
+                    self.max.x
+                },
+                if corner & 2 == 0 {
+                    self.min.y
+                } else {
+                    self.max.y
+                },
+                if corner & 4 == 0 {
+                    self.min.z
+                } else {
+                    self.max.z
+                },
+            );
+            for pose in poses {
+                out = out.grown(pose.inverse_transform_point(p));
+            }
+        }
+        out
     }
 
     /// Whether `p` is inside (boundary included).
