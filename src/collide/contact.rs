@@ -151,7 +151,17 @@ pub(crate) struct ContactScratch {
     /// The colliders whose swept bounds meet the cloth's in the current substep (a crowd's
     /// other characters are left out before any particle is looked at).
     near: Vec<u32>,
+    /// The particles each sphere and capsule can reach in the current step, collider by
+    /// collider (see [`Self::begin_step`]) ...
+    candidates: Vec<u32>,
+    /// ... per collider the range of `candidates` that are its own, `None` for the shapes
+    /// whose every particle is looked at.
+    candidate_ranges: Vec<Option<(u32, u32)>>,
 }
+
+/// Metres added to the distance within which a particle is a sphere's or a capsule's
+/// candidate for a step, for the moves the constraints make beyond the particles' own.
+const CANDIDATE_SLACK: f32 = 0.01;
 
 impl ContactScratch {
     /// The contacts of the last substep, one per particle.
@@ -159,13 +169,20 @@ impl ContactScratch {
         &self.contacts
     }
 
-    /// Prepares a step: the colliders' swept bounds grown by their reach.
+    /// Prepares a step: the colliders' swept bounds grown by their reach, and for each sphere
+    /// and capsule the particles it can reach in the step. `x` are the positions at the start
+    /// of the step and `travel` the farthest any particle can move in it: a particle farther
+    /// from the collider's surface at the start than the reach plus twice that travel plus how
+    /// far the collider's core moves ([`SolverCollider::core_motion`]) is left out of its
+    /// passes for the step.
     pub(crate) fn begin_step(
         &mut self,
         colliders: &[SolverCollider],
-        particles: usize,
+        x: &[Vec3A],
+        travel: f32,
         thickness: f32,
     ) {
+        let particles = x.len();
         self.thickness = thickness;
         self.contacts.resize(particles, Contact::EMPTY);
         self.held.resize(particles, Vec3A::ZERO);
@@ -180,6 +197,20 @@ impl ContactScratch {
         self.poses.extend(colliders.iter().map(|c| c.end));
         self.start_poses.clear();
         self.start_poses.extend(colliders.iter().map(|c| c.start));
+        self.candidates.clear();
+        self.candidate_ranges.clear();
+        for c in colliders {
+            let range = c.core_motion().filter(|m| m.is_finite()).map(|motion| {
+                let first = self.candidates.len() as u32;
+                let limit = c.margin + thickness + 2.0 * travel + motion + CANDIDATE_SLACK;
+                self.candidates.extend((0..particles as u32).filter(|&i| {
+                    let local = c.start.inverse_transform_point(x[i as usize]);
+                    c.shape.signed_distance(local, limit).is_some()
+                }));
+                (first, self.candidates.len() as u32)
+            });
+            self.candidate_ranges.push(range);
+        }
     }
 
     /// Prepares a substep from a fraction `t_start` to `t_end` of the step: poses at both,
@@ -274,7 +305,13 @@ impl ContactScratch {
                 ContactPass::Closing => 0.0,
             };
             let swept = matches!(collider.shape, super::SolverShape::TriangleMesh(_));
-            for i in 0..x.len() {
+            // A sphere's or a capsule's candidates, or every particle.
+            let (listed, rest) = match self.candidate_ranges.get(k).copied().flatten() {
+                Some((first, end)) => (&self.candidates[first as usize..end as usize], 0..0),
+                None => (&[][..], 0..x.len() as u32),
+            };
+            for i in listed.iter().copied().chain(rest) {
+                let i = i as usize;
                 if w[i] <= 0.0 || bounds.is_some_and(|b| !b.contains(x[i])) {
                     continue;
                 }
@@ -454,5 +491,134 @@ impl ContactScratch {
     /// How many particles touched a collider in the last substep.
     pub(crate) fn count(&self) -> usize {
         self.contacts.iter().filter(|c| c.is_some()).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collide::{ContactMaterial, SolverShape};
+    use crate::rng::Rng;
+    use bevy::math::Quat;
+
+    /// A sphere or a capsule at a random pose, moved and turned (up to half a turn) at random
+    /// over a step of `dt`.
+    fn random_rounded_collider(rng: &mut Rng, dt: f32) -> SolverCollider {
+        let radius = rng.range(0.03, 0.15);
+        let shape = if rng.uniform() < 0.3 {
+            SolverShape::Sphere { radius }
+        } else {
+            SolverShape::Capsule {
+                radius,
+                half_length: rng.range(0.0, 0.2),
+            }
+        };
+        let random_turn = |rng: &mut Rng, most: f32| {
+            Quat::from_axis_angle(rng.unit_vector(), rng.range(-most, most))
+        };
+        let start = RigidPose {
+            translation: rng.vec3(-0.3, 0.3).into(),
+            rotation: random_turn(rng, std::f32::consts::PI),
+        };
+        let end = RigidPose {
+            translation: start.translation + Vec3A::from(rng.vec3(-0.1, 0.1)),
+            rotation: random_turn(rng, 0.5 * std::f32::consts::PI) * start.rotation,
+        };
+        let mut collider = SolverCollider::fixed(shape, start);
+        collider.end = end;
+        (collider.linear_velocity, collider.angular_velocity) = start.velocity_to(&end, dt);
+        collider
+    }
+
+    /// No point of a sphere's or a capsule's core moves farther over the step than
+    /// `SolverCollider::core_motion`, at any pose between the start and the end.
+    #[test]
+    fn no_core_point_moves_farther_than_the_core_motion() {
+        let mut rng = Rng(11);
+        for _ in 0..300 {
+            let c = random_rounded_collider(&mut rng, 1.0 / 60.0);
+            let bound = c.core_motion().unwrap();
+            let half_length = match c.shape {
+                SolverShape::Capsule { half_length, .. } => half_length,
+                _ => 0.0,
+            };
+            for _ in 0..20 {
+                let local = Vec3A::Y * rng.range(-half_length, half_length);
+                let at = c.pose_at(rng.uniform()).transform_point(local);
+                let moved = at.distance(c.start.transform_point(local));
+                assert!(moved <= bound + 1e-5, "{moved} > {bound}");
+            }
+        }
+        let plane = SolverCollider::ground(0.0, ContactMaterial::default());
+        assert_eq!(plane.core_motion(), None);
+    }
+
+    /// Random particles outside random moving spheres and capsules (and a ground), moving at
+    /// random velocities: the passes over each collider's candidates move every particle
+    /// exactly as passes over every particle do, substep after substep.
+    #[test]
+    fn the_candidates_give_the_contacts_every_particle_would() {
+        let mut rng = Rng(5);
+        let dt = 1.0 / 60.0;
+        let substeps = 4;
+        let h = dt / substeps as f32;
+        let thickness = 0.005;
+        let mut touched = 0;
+        for _ in 0..40 {
+            let mut colliders: Vec<SolverCollider> = (0..4)
+                .map(|_| random_rounded_collider(&mut rng, dt))
+                .collect();
+            colliders.push(SolverCollider::ground(-0.35, ContactMaterial::default()));
+            let reach = |c: &SolverCollider| c.margin + thickness;
+            let outside = |p: Vec3A| {
+                colliders.iter().all(|c| {
+                    let local = c.start.inverse_transform_point(p);
+                    c.shape.signed_distance(local, reach(c)).is_none()
+                })
+            };
+            let mut x = Vec::new();
+            while x.len() < 200 {
+                let p = Vec3A::from(rng.vec3(-0.5, 0.5));
+                if outside(p) {
+                    x.push(p);
+                }
+            }
+            let v: Vec<Vec3A> = x.iter().map(|_| Vec3A::from(rng.vec3(-3.0, 3.0))).collect();
+            let w = vec![1.0; x.len()];
+            let speed = v.iter().fold(0.0f32, |m, v| m.max(v.length()));
+            let (mut listed, mut every) = (ContactScratch::default(), ContactScratch::default());
+            listed.begin_step(&colliders, &x, speed * dt, thickness);
+            every.begin_step(&colliders, &x, speed * dt, thickness);
+            // Every particle looked at for every collider.
+            every.candidate_ranges.fill(None);
+            let (mut xa, mut xb) = (x.clone(), x.clone());
+            for s in 0..substeps {
+                let x_prev = xa.clone();
+                assert_eq!(xa, xb);
+                for ((a, b), v) in xa.iter_mut().zip(&mut xb).zip(&v) {
+                    *a += *v * h;
+                    *b += *v * h;
+                }
+                let (t0, t1) = (s as f32 / substeps as f32, (s + 1) as f32 / substeps as f32);
+                for (scratch, x) in [(&mut listed, &mut xa), (&mut every, &mut xb)] {
+                    scratch.begin_substep(&colliders, t0, t1, x, &x_prev);
+                    for pass in [
+                        ContactPass::Iteration {
+                            friction_step: Some(h),
+                        },
+                        ContactPass::Closing,
+                    ] {
+                        scratch.project(&colliders, x, &x_prev, &v, &w, Vec3A::ZERO, pass);
+                    }
+                }
+                assert_eq!(xa, xb, "substep {s}");
+                assert_eq!(listed.contacts(), every.contacts());
+                // The contacts with the spheres and capsules (the ground is the fifth).
+                touched += listed.contacts().iter().filter(|c| c.collider < 4).count();
+            }
+            assert!(listed.candidates.len() < 4 * x.len());
+        }
+        // The particles met the colliders often enough for the comparison to mean something.
+        assert!(touched > 300, "{touched} contacts");
     }
 }

@@ -338,6 +338,22 @@ impl SolverCollider {
         ]
     }
 
+    /// For a sphere or a capsule, how far any point of its core (the centre, the axis
+    /// segment) can be at a pose of the step ([`Self::pose_at`]: translation interpolated,
+    /// rotation slerped) from where it is at the start: the origin's move plus the segment
+    /// end's swing, `2 sin(theta / 2)` of the half length for a turn by `theta`. `None` for
+    /// the other shapes.
+    pub(crate) fn core_motion(&self) -> Option<f32> {
+        let half_length = match self.shape {
+            SolverShape::Sphere { .. } => 0.0,
+            SolverShape::Capsule { half_length, .. } => half_length,
+            SolverShape::Plane | SolverShape::TriangleMesh(_) => return None,
+        };
+        let turn = self.end.rotation * self.start.rotation.inverse();
+        let swing = 2.0 * turn.xyz().length();
+        Some(self.start.translation.distance(self.end.translation) + half_length * swing)
+    }
+
     /// The pose a fraction `t` in [0, 1] through the step.
     #[inline]
     pub(crate) fn pose_at(&self, t: f32) -> RigidPose {

@@ -1,12 +1,27 @@
 //! The colliders of a [`ClothSolver`]: setting them, carrying the cloth and them with the
 //! frame it follows, and reading the contacts.
 
+use bevy::math::Vec3A;
+
 use super::ClothSolver;
 use crate::collide::contact::Contact;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::ColliderError;
 
 impl ClothSolver {
+    /// The farthest a particle can move in a step of `dt` seconds under the acceleration `a`
+    /// and the air's (`air`, per particle): at the largest speed, or with the fastest pin.
+    /// The contacts look no farther for the particles a sphere or a capsule can reach.
+    pub(super) fn step_travel(&self, a: Vec3A, dt: f32, air: Option<&[Vec3A]>) -> f32 {
+        let largest = |v: &[Vec3A]| v.iter().fold(0.0f32, |m, v| m.max(v.length()));
+        let pushed = a.length() + air.map_or(0.0, largest);
+        let travel = largest(&self.state.velocities) * dt + 0.5 * pushed * dt * dt;
+        self.pins
+            .iter()
+            .chain(self.drag.as_ref())
+            .fold(travel, |m, pin| m.max(pin.start.distance(pin.end)))
+    }
+
     /// Replaces the colliders the cloth meets in the next steps (see [`crate::collide`]).
     /// A collider that is not valid ([`SolverCollider::validate`]: a bad dimension or
     /// material, a non-finite pose or velocity) is left out, and the first such error is

@@ -171,6 +171,11 @@ impl ClothSolver {
         let long_range = settings.projects_long_range();
         // Two halves at once (`halves.rs`).
         let splits = join.is_parallel() && self.splits_in_two(settings);
+        let air = settings
+            .air
+            .is_some_and(|air| air.is_active())
+            .then_some(&self.air_acceleration);
+        let travel = self.step_travel(a, dt, air.map(Vec::as_slice));
         let mut halves = self
             .halves
             .as_mut()
@@ -187,10 +192,6 @@ impl ClothSolver {
         let friction_step = (!mass_spring).then_some(h);
         let damping_k = 1.0 - (-settings.damping * h).exp();
         let pin_velocity = 1.0 / dt;
-        let air = settings
-            .air
-            .is_some_and(|air| air.is_active())
-            .then_some(&self.air_acceleration);
         let bounce_threshold = 2.0 * a.length() * h;
 
         let ClothState {
@@ -207,7 +208,7 @@ impl ClothSolver {
             .filter(|_| settings.self_collision);
         let mut laps = Laps::start();
         self.contacts
-            .begin_step(colliders, x.len(), settings.thickness);
+            .begin_step(colliders, x, travel, settings.thickness);
         self.vertex_contacts.begin_step(
             colliders,
             &self.model.triangles,
