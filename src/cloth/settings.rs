@@ -200,7 +200,9 @@ pub struct SolverSettings {
 pub struct ExactEdges {
     /// Gauss-Newton steps per substep. Default: `1`.
     pub newton_steps: u32,
-    /// Conjugate-gradient iterations per step at most. Default: `20`.
+    /// Conjugate-gradient iterations per step at most: the solve starts from the last one's
+    /// multipliers and stops early once every edge's linearised residual is within 0.01% of
+    /// its rest length. Default: `20`.
     pub cg_iterations: u32,
 }
 

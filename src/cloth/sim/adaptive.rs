@@ -9,8 +9,9 @@ use crate::cloth::settings::{AdaptiveSubsteps, SolverSettings};
 
 impl ClothSolver {
     /// One fixed step under [`SolverSettings::adaptive`]: the step runs at the chosen count;
-    /// if it ends above the target strain it is undone (the state, and the contacts with
-    /// friction's anchors, which every substep moves with the colliders' surfaces) and run
+    /// if it ends above the target strain it is undone (the state, the contacts with
+    /// friction's anchors, which every substep moves with the colliders' surfaces, and the
+    /// exact edges' warm start) and run
     /// again with more substeps (up to the maximum), so every step that can meet the target
     /// does. The count then goes down as [`AdaptiveSubsteps::next`] says.
     /// [`ClothSolver::last_substeps`] counts every substep run, undone ones included (the
@@ -35,6 +36,11 @@ impl ClothSolver {
         .clamp(lo, hi);
         self.adaptive_backup.clone_from(&self.state);
         self.adaptive_contacts_backup.clone_from(&self.contacts);
+        self.adaptive_projection_backup.clear();
+        if let Some(projection) = &self.fast_projection {
+            self.adaptive_projection_backup
+                .extend_from_slice(projection.warm_start());
+        }
         let mut run = 0;
         loop {
             self.step_substeps(&chosen, acceleration, dt, join, None);
@@ -45,6 +51,9 @@ impl ClothSolver {
                 // Over the target: undo the step and run it again with more.
                 self.state.clone_from(&self.adaptive_backup);
                 self.contacts.clone_from(&self.adaptive_contacts_backup);
+                if let Some(projection) = self.fast_projection.as_mut() {
+                    projection.restore_warm_start(&self.adaptive_projection_backup);
+                }
                 chosen.substeps = next;
                 continue;
             }

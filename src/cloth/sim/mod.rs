@@ -159,6 +159,8 @@ pub struct ClothSolver {
     /// The contacts before an adaptive step (friction's anchors move with the colliders'
     /// surfaces in every substep), to undo them with the state.
     adaptive_contacts_backup: ContactScratch,
+    /// The exact edges' warm start before an adaptive step, to undo it with the state.
+    adaptive_projection_backup: Vec<f32>,
     /// Buffers of the order-free edge projection (closed cloth).
     jacobi: JacobiScratch,
     /// The wind at each particle, from the last [`ClothSolver::set_wind`].
@@ -271,6 +273,7 @@ impl ClothSolver {
             adaptive_calm: 0,
             adaptive_backup: ClothState::default(),
             adaptive_contacts_backup: ContactScratch::default(),
+            adaptive_projection_backup: Vec::new(),
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
@@ -342,6 +345,9 @@ impl ClothSolver {
     pub fn reset(&mut self) {
         self.state = ClothState::at_rest(&self.model);
         self.contacts.forget();
+        if let Some(projection) = self.fast_projection.as_mut() {
+            projection.forget_warm_start();
+        }
         self.adaptive_substeps = 0;
         self.adaptive_calm = 0;
         if self.drag.take().is_some() {
