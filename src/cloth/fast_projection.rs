@@ -43,8 +43,8 @@ pub(crate) struct FastProjection {
     diagonal: Vec<f32>,
     particles: Vec<Vec3A>,
     start: Vec<Vec3A>,
-    /// `1 / L_e`.
-    inverse_rest: Vec<f32>,
+    /// `TOLERANCE L_e`: the residual each edge may keep.
+    tolerance: Vec<f32>,
 }
 
 impl FastProjection {
@@ -52,7 +52,7 @@ impl FastProjection {
     /// that no projection allocates.
     pub(crate) fn new<'a>(edges: impl Iterator<Item = &'a Edge>, particles: usize) -> Self {
         let edges: Vec<_> = edges.map(|e| (e.particles, e.rest_length)).collect();
-        let inverse_rest = edges.iter().map(|&(_, rest)| 1.0 / rest).collect();
+        let tolerance = edges.iter().map(|&(_, rest)| TOLERANCE * rest).collect();
         let m = edges.len();
         Self {
             edges,
@@ -65,7 +65,7 @@ impl FastProjection {
             diagonal: vec![0.0; m],
             particles: vec![Vec3A::ZERO; particles],
             start: Vec::with_capacity(particles),
-            inverse_rest,
+            tolerance,
         }
     }
 
@@ -162,13 +162,13 @@ impl FastProjection {
                     break;
                 }
                 let alpha = rz / pap;
-                let mut largest = 0.0f32;
+                let mut open = false;
                 for k in 0..m {
                     self.lambda[k] += alpha * self.direction[k];
                     self.residual[k] -= alpha * self.product[k];
-                    largest = largest.max(self.residual[k].abs() * self.inverse_rest[k]);
+                    open |= self.residual[k].abs() > self.tolerance[k];
                 }
-                if largest <= TOLERANCE {
+                if !open {
                     break;
                 }
                 let rz_new: f32 = (0..m)
