@@ -5,11 +5,12 @@
 //!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--shear-compliance inf] [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
-//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport|tour|sprint|hop|set-off|turn-around|zigzag|carried]
+//!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport|tour|sprint|hop|set-off|turn-around|zigzag|carried|stand]
 //!     [--inertia 1] [--speed-limit 1.5|none] [--neck-radius 0.1]
 //!     [--simulate-n 15] [--simulate-drawn] [--wind 10] [--gusts 0] [--threads 2]
 //!     [--adaptive 0.01] [--fixed-substeps] [--exact-edges 20] [--no-exact-edges]
-//! cargo run --release --example scenes -- crowd [--characters 8] [--threads 2] [--frames 600] [--runs 3]
+//! cargo run --release --example scenes -- crowd [--characters 8] [--standing 0] [--threads 2] [--frames 600]
+//!     [--warmup 0] [--lod] [--runs 3]
 //! cargo run --release --example scenes -- mesh-drop --mesh bunny|duck|spider|PATH.obj [--n 16] [--frames 180]
 //! cargo run --release --example scenes -- pour [--substeps 16] [--iterations 4] [--frames 360] [--runs 3]
 //! ```
@@ -26,11 +27,16 @@
 //! task (`ClothSolver::step_with`, `with_helper`) and adds that run's ms per frame, its ratio
 //! to one thread's (`speedup`) and its strain.
 //!
-//! `crowd` is S3 with `--characters` characters in ponchos in a row, walking, jogging, standing
-//! and teleporting (`PonchoScene::characters`), stepped on one thread and on `--threads`
+//! `crowd` is S3 with `--characters` characters in ponchos in a row, walking, jogging, walking
+//! on the spot and teleporting (`PonchoScene::characters`), the last `--standing` of them
+//! standing still (`PonchoScene::standing`), stepped on one thread and on `--threads`
 //! (`DrapeSettings::max_threads`) in turn, `--runs` times each: the ms per fixed step of both
-//! (the median over the runs of each run's median), their ratio, and whether every run gave
-//! the same figures bit for bit.
+//! (the median over the runs of each run's median) and per character, their ratio, how many
+//! ponchos were asleep at the end (`slept`), and whether every run gave the same figures bit
+//! for bit. `--warmup S` runs S seconds before the `--frames` that are timed (standing
+//! characters' ponchos take 15-20 s to come to rest after the drop and fall asleep). `--lod`
+//! measures from a viewer 4 m before the first character (`ClothLevelOfDetail`): 4 substeps
+//! beyond 12 m, frozen beyond 30 m.
 //!
 //! `s2` drops the sheet as a woven fabric (`Drape::settings`: free shear, a light fabric's
 //! bending, the substep count adapted to hold 1% strain from 8 x 2); `--fixed-substeps` keeps
@@ -68,9 +74,11 @@
 //! figures come from the last run (every run is identical: the solver is deterministic).
 
 use bevy::math::Vec3;
-use bevy_drape::cloth::plugin::ClothSettings;
+use bevy::transform::components::Transform;
+use bevy_drape::cloth::plugin::{ClothLevelOfDetail, ClothSettings};
 use bevy_drape::cloth::{
-    AdaptiveSubsteps, ExactEdges, Gusts, PonchoDesc, SolverMethod, SolverSettings,
+    AdaptiveSubsteps, ExactEdges, Gusts, LodBudget, LodLevel, PonchoDesc, SolverMethod,
+    SolverSettings,
 };
 use bevy_drape::schedule::DrapeSettings;
 use drape_scenes::poncho::{
@@ -115,6 +123,9 @@ fn run() -> Result<(), String> {
     let mut simulate_n: Option<u32> = None;
     let mut simulate_drawn = false;
     let mut characters = 8u32;
+    let mut standing = 0u32;
+    let mut warmup = 0.0f32;
+    let mut lod = false;
     let mut threads: Option<usize> = None;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
@@ -180,6 +191,9 @@ fn run() -> Result<(), String> {
             "--simulate-drawn" => simulate_drawn = true,
             "--no-air" => settings.air = None,
             "--characters" => characters = parse(&value()?)?,
+            "--standing" => standing = parse(&value()?)?,
+            "--warmup" => warmup = parse(&value()?)?,
+            "--lod" => lod = true,
             "--threads" => threads = Some(parse(&value()?)?),
             other => return Err(format!("unknown option {other}")),
         }
@@ -396,6 +410,10 @@ fn run() -> Result<(), String> {
             Ok(())
         }
         "crowd" => {
+            if !(warmup.is_finite() && warmup >= 0.0) {
+                return Err("--warmup must be a number of seconds, at least 0".into());
+            }
+            let warmup_steps = (warmup * 60.0).round() as u32;
             let threads = std::num::NonZeroUsize::new(threads.unwrap_or(2))
                 .ok_or("--threads must be at least 1")?;
             // One thread and `threads` in turn, `runs` times each, so that both see the
@@ -410,13 +428,33 @@ fn run() -> Result<(), String> {
                     let mut app = headless_app(PonchoScene {
                         solver: settings,
                         characters,
+                        standing,
                         ..PonchoScene::default()
                     });
                     app.insert_resource(DrapeSettings {
                         max_threads: Some(max_threads),
                         ..DrapeSettings::default()
                     });
-                    into.push(run_app(app, frames).map_err(|e| {
+                    if lod {
+                        let viewer = app
+                            .world_mut()
+                            .spawn(Transform::from_xyz(-4.0, 1.6, 0.0))
+                            .id();
+                        app.insert_resource(ClothLevelOfDetail {
+                            viewer: Some(viewer),
+                            levels: vec![
+                                LodLevel {
+                                    beyond: 12.0,
+                                    budget: LodBudget::Substeps(4),
+                                },
+                                LodLevel {
+                                    beyond: 30.0,
+                                    budget: LodBudget::Frozen,
+                                },
+                            ],
+                        });
+                    }
+                    into.push(run_app(app, warmup_steps + frames).map_err(|e| {
                         format!("{e} (is the working directory the repository root?)")
                     })?);
                 }
@@ -431,7 +469,7 @@ fn run() -> Result<(), String> {
                 median(
                     &runs
                         .iter()
-                        .map(|run| run.median_ms(stage))
+                        .map(|run| run.median_ms_after(stage, warmup_steps as usize))
                         .collect::<Vec<_>>(),
                 )
             };
@@ -439,10 +477,13 @@ fn run() -> Result<(), String> {
             let (many_ms, many_cloth) = (ms(&many_runs, 4), ms(&many_runs, 3));
             let all = || one_runs.iter().chain(&many_runs);
             println!(
-                "{{\"scene\":\"crowd\",\"characters\":{characters},\"particles_each\":{},\"substeps\":{},\"iterations\":{},\"frames\":{frames},\"runs\":{runs},\"threads\":{threads},\"ms_per_frame_1\":{one_ms:.4},\"ms_cloth_1\":{one_cloth:.4},\"ms_per_frame_n\":{many_ms:.4},\"ms_cloth_n\":{many_cloth:.4},\"speedup\":{:.3},\"cloth_speedup\":{:.3},\"same_result\":{same},\"step_max_strain_median\":{:.6},\"deepest_penetration\":{:.6},\"divergences\":{},\"finite\":{}}}",
+                "{{\"scene\":\"crowd\",\"characters\":{characters},\"particles_each\":{},\"substeps\":{},\"iterations\":{},\"frames\":{frames},\"warmup\":{warmup},\"runs\":{runs},\"threads\":{threads},\"standing\":{standing},\"lod\":{lod},\"ms_per_frame_1\":{one_ms:.4},\"ms_cloth_1\":{one_cloth:.4},\"ms_per_frame_n\":{many_ms:.4},\"ms_cloth_n\":{many_cloth:.4},\"ms_per_character_1\":{:.4},\"ms_per_character_n\":{:.4},\"slept\":{},\"speedup\":{:.3},\"cloth_speedup\":{:.3},\"same_result\":{same},\"step_max_strain_median\":{:.6},\"deepest_penetration\":{:.6},\"divergences\":{},\"finite\":{}}}",
                 one.particles,
                 settings.substeps,
                 settings.iterations,
+                one_ms / characters.max(1) as f64,
+                many_ms / characters.max(1) as f64,
+                one.asleep,
                 one_ms / many_ms,
                 one_cloth / many_cloth,
                 one.step_strain_median(),

@@ -12,6 +12,7 @@ mod app_divergence;
 mod app_drawing;
 mod app_threads;
 mod balloon;
+mod budget;
 mod cloth_dynamics;
 mod cloth_model;
 mod cloth_statics;

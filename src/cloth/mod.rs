@@ -15,6 +15,7 @@ pub(crate) mod flat_layout;
 pub(crate) mod garment;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod isometric_bending;
+pub(crate) mod lod;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod mass_spring;
 pub mod mesh;
@@ -40,6 +41,7 @@ pub use damping::RigidMotion;
 pub use debug_colors::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
 pub use embedding::{EmbeddedVertex, Embedding};
 pub use garment::{PonchoDesc, to_obj};
+pub use lod::{LOD_MARGIN, LodBudget, LodLevel};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use settings::{
@@ -48,7 +50,8 @@ pub use settings::{
 pub(crate) use sim::SubstepCoupling;
 pub use sim::diagnostics::{Divergence, StrainStats};
 pub use sim::{
-    ClothSolver, Join, MAX_SPEED_CHANGE, MAX_STEP, OneThread, Pin, StepTimings, with_helper,
+    ClothSolver, Join, MAX_SPEED_CHANGE, MAX_STEP, OneThread, Pin, SleepSettings, StepTimings,
+    with_helper,
 };
 pub use state::ClothState;
 pub use volume::VolumeSettings;

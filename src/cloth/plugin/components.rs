@@ -5,10 +5,11 @@ use bevy::prelude::*;
 
 use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::flat_layout::FlatLayout;
+use crate::cloth::lod::LodLevel;
 use crate::cloth::render_mesh::EmbeddedRender;
 use crate::cloth::settings::{DivergenceBounds, SolverMethod, SolverSettings};
-use crate::cloth::sim::ClothSolver;
 use crate::cloth::sim::diagnostics::Divergence;
+use crate::cloth::sim::{ClothSolver, SleepClock, SleepSettings};
 use crate::collide::skin::DrawnColliders;
 use crate::collide::{FrameStep, FrameTracker, RigidPose, SolverCollider};
 use crate::error::ClothError;
@@ -138,6 +139,15 @@ pub struct ClothSettings {
     ///
     /// [`AirSettings`]: crate::cloth::AirSettings
     pub wind: bool,
+    /// When the cloth sleeps: still for a while (no particle farther than
+    /// [`SleepSettings::distance`] from where it was [`SleepSettings::seconds`] ago) with
+    /// nothing about it moving,
+    /// it stops being solved and gets a [`ClothSleeping`] marker; it wakes in the fixed step
+    /// its followed entity, a pin or attachment target, a collider near it, the wind, a drag
+    /// ([`ClothSimulation::solver_mut`]), these settings or the gravity change. `None`: it never
+    /// sleeps. A cloth stepped with a coupling (water in it) never sleeps. Default:
+    /// `Some(SleepSettings::default())`.
+    pub sleep: Option<SleepSettings>,
 }
 
 impl Default for ClothSettings {
@@ -150,6 +160,7 @@ impl Default for ClothSettings {
             on_divergence: OnDivergence::Freeze,
             inertia: 1.0,
             speed_limit: Some(Self::DEFAULT_SPEED_LIMIT),
+            sleep: Some(SleepSettings::default()),
         }
     }
 }
@@ -182,6 +193,49 @@ pub struct ClothDiverged {
     pub divergence: Divergence,
     /// What was done about it.
     pub response: OnDivergence,
+}
+
+/// On a cloth that sleeps (see [`ClothSettings::sleep`]): it is not solved, its pose is kept
+/// and its mesh is not rewritten until it wakes; the marker goes when it does. Added and
+/// removed by the cloth's step.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect)]
+#[reflect(Component)]
+pub struct ClothSleeping;
+
+/// Level of detail: every cloth's budget by its distance from a viewer, for crowds. A cloth
+/// farther than a level's [`LodLevel::beyond`] gets that level's
+/// [`LodBudget`](crate::cloth::LodBudget): fewer substeps, frozen (carried rigidly with the
+/// entity it follows, not solved) or hidden too. A cloth leaves a level for a nearer one
+/// [`LOD_MARGIN`](crate::cloth::LOD_MARGIN) inside its distance, so one walking along the
+/// line does not switch at every step; a frozen cloth comes back from rest in its followed
+/// entity's frame, its speed relative to that entity limited in its first step (no jolt).
+///
+/// ```
+/// # use bevy::prelude::*;
+/// # use bevy_drape::cloth::{LodBudget, LodLevel};
+/// # use bevy_drape::cloth::plugin::ClothLevelOfDetail;
+/// // Half the substeps beyond 15 m from the active camera, frozen beyond 40 m, hidden beyond
+/// // 80 m.
+/// let lod = ClothLevelOfDetail {
+///     viewer: None,
+///     levels: vec![
+///         LodLevel { beyond: 15.0, budget: LodBudget::Substeps(4) },
+///         LodLevel { beyond: 40.0, budget: LodBudget::Frozen },
+///         LodLevel { beyond: 80.0, budget: LodBudget::Hidden },
+///     ],
+/// };
+/// App::new().insert_resource(lod);
+/// ```
+#[derive(Resource, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct ClothLevelOfDetail {
+    /// The entity distances are measured from. `None` (default): the first active camera.
+    /// An entity without a transform is warned about (with its id) and the camera used.
+    pub viewer: Option<Entity>,
+    /// The levels, by increasing distance. Empty (default): every cloth at its full budget.
+    /// Levels that are not increasing, or a substep count of 0, are warned about and no
+    /// level of detail is used until they are fixed.
+    pub levels: Vec<LodLevel>,
 }
 
 /// The [`ClothSettings`] of every cloth that has none of its own.
@@ -245,6 +299,19 @@ pub struct ClothSimulation {
     pub(super) warned_follow: bool,
     /// The drawn mesh, when it is not the simulated one ([`ClothSimulationMesh`]).
     pub(super) render: Option<EmbeddedRender>,
+    /// How long the cloth has been still, and whether it sleeps ([`ClothSettings::sleep`]).
+    pub(super) sleep: SleepClock,
+    /// The settings and the gravity the cloth fell asleep with.
+    pub(super) slept_with: Option<(ClothSettings, Vec3)>,
+    pub(super) warned_sleep: bool,
+    /// What the mesh was last drawn from while the cloth sleeps (the cloth's and the followed
+    /// entity's drawn poses): the same again is not redrawn.
+    pub(super) drawn_asleep: Option<(GlobalTransform, Option<RigidPose>)>,
+    /// The cloth's level of detail (0: full budget, `k`: [`ClothLevelOfDetail::levels`]`[k - 1]`).
+    pub(super) lod_level: usize,
+    /// Whether its level of detail hides it, and its visibility before it was hidden.
+    pub(super) lod_hidden: bool,
+    pub(super) hidden_from: Option<Visibility>,
 }
 
 impl ClothSimulation {
@@ -269,9 +336,30 @@ impl ClothSimulation {
         &self.sim
     }
 
-    /// The cloth's solver, to read or change its state directly.
+    /// The cloth's solver, to read or change its state directly. A sleeping cloth wakes
+    /// (whatever is done to it is stepped from the next fixed step).
     pub fn solver_mut(&mut self) -> &mut ClothSolver {
+        self.wake();
         &mut self.sim
+    }
+
+    /// The cloth's level of detail: 0 at its full budget, `k` at
+    /// [`ClothLevelOfDetail::levels`]`[k - 1]`.
+    pub fn level_of_detail(&self) -> usize {
+        self.lod_level
+    }
+
+    /// Whether the cloth sleeps ([`ClothSettings::sleep`]).
+    pub fn is_asleep(&self) -> bool {
+        self.sleep.is_asleep()
+    }
+
+    /// Wakes the cloth if it sleeps: it is stepped again from the next fixed step, as if it
+    /// had never slept.
+    pub fn wake(&mut self) {
+        self.sleep.wake();
+        self.slept_with = None;
+        self.drawn_asleep = None;
     }
 
     /// The followed entity's ([`Cloth::follow`]) motion over the last fixed step.
@@ -282,6 +370,7 @@ impl ClothSimulation {
     /// Puts the cloth back in its rest shape, at rest: where it was built or, if it follows
     /// an entity, where that shape is in the entity's frame now.
     pub fn reset(&mut self) {
+        self.wake();
         self.sim.reset();
         if let (Some(built), Some(now)) = (self.built_in_frame, self.followed) {
             let moved = FrameStep {

@@ -1,14 +1,16 @@
 //! The Bevy side of the cloth: components, resources and the thin systems that build, step and
 //! draw [`ClothSolver`](crate::cloth::ClothSolver)s.
 
+mod budget;
 mod components;
 mod spawn;
 mod step;
 mod write_back;
 
 pub use components::{
-    Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothSettings, ClothSettingsFile,
-    ClothSimulation, DefaultClothSettings, OnDivergence, VertexAttachment,
+    Cloth, ClothBuildError, ClothDebugColors, ClothDiverged, ClothLevelOfDetail, ClothSettings,
+    ClothSettingsFile, ClothSimulation, ClothSleeping, DefaultClothSettings, OnDivergence,
+    VertexAttachment,
 };
 
 use bevy::app::{App, Plugin, PostUpdate};
@@ -19,6 +21,7 @@ use crate::cloth::render_mesh::ClothSimulationMesh;
 use crate::schedule::{
     ClothCoupling, ClothCouplingInstalled, DrapeSchedule, DrapeSystems, NoCoupling,
 };
+use budget::mark_cloths;
 use spawn::build_cloths;
 use step::step_cloths;
 use write_back::write_back_meshes;
@@ -38,8 +41,11 @@ impl Plugin for ClothPlugin {
             DefaultClothSettings,
             ClothDebugColors,
             ClothPaint,
+            ClothSleeping,
+            ClothLevelOfDetail,
         )>()
         .init_resource::<DefaultClothSettings>()
+        .init_resource::<ClothLevelOfDetail>()
         .init_resource::<ClothDebugColors>()
         .add_message::<ClothDiverged>()
         .add_systems(
@@ -48,6 +54,7 @@ impl Plugin for ClothPlugin {
                 .in_set(DrapeSystems::Step)
                 .run_if(not(resource_exists::<ClothCouplingInstalled>)),
         )
+        .add_systems(schedule, mark_cloths.after(DrapeSystems::Step))
         .add_systems(
             PostUpdate,
             write_back_meshes.in_set(DrapeSystems::Writeback),

@@ -95,6 +95,13 @@ fn build_simulation(
             built_in_frame: None,
             warned_follow: false,
             render,
+            sleep: Default::default(),
+            slept_with: None,
+            warned_sleep: false,
+            drawn_asleep: None,
+            lod_level: 0,
+            lod_hidden: false,
+            hidden_from: None,
         },
         warnings,
     ))

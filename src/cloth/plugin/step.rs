@@ -6,10 +6,13 @@ use bevy::math::Vec3A;
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
+use super::budget::{LodWarnings, disturbance, lod_viewer, sleep_settings};
 use super::components::{
-    Cloth, ClothDiverged, ClothSettings, ClothSimulation, DefaultClothSettings, OnDivergence,
+    Cloth, ClothDiverged, ClothLevelOfDetail, ClothSettings, ClothSimulation, DefaultClothSettings,
+    OnDivergence,
 };
 use crate::cloth::air::{AirSettings, WindField};
+use crate::cloth::lod::{LodBudget, LodLevel, level_at};
 use crate::cloth::sim::{Join, OneThread, StepTimings, with_helper};
 use crate::collide::SolverCollider;
 
@@ -37,13 +40,18 @@ pub(super) fn step_cloths<C: ClothCoupling>(
     time: Res<Time>,
     transforms: TransformHelper,
     mut diverged: MessageWriter<ClothDiverged>,
-    (colliders, wind, timings): (
+    (colliders, wind, timings, lod, cameras, mut lod_warnings): (
         Option<Res<StepColliders>>,
         Option<Res<StepWind>>,
         Option<ResMut<DrapeTimings>>,
+        Res<ClothLevelOfDetail>,
+        Query<(&Camera, &GlobalTransform)>,
+        Local<LodWarnings>,
     ),
 ) {
+    let lod = lod_viewer(&lod, &cameras, &transforms, &mut lod_warnings);
     let context = StepContext {
+        lod,
         defaults: &defaults.0,
         drape: &drape,
         dt: time.delta_secs(),
@@ -159,6 +167,15 @@ pub(super) fn step_cloths<C: ClothCoupling>(
     }
 }
 
+/// The budget of level `level` (`None`: full).
+fn budget_of(lod: Option<(&[LodLevel], Vec3A)>, level: usize) -> Option<LodBudget> {
+    let (levels, _) = lod?;
+    level
+        .checked_sub(1)
+        .and_then(|k| levels.get(k))
+        .map(|l| l.budget)
+}
+
 /// What every cloth's step reads from the world.
 struct StepContext<'a> {
     defaults: &'a ClothSettings,
@@ -168,6 +185,8 @@ struct StepContext<'a> {
     transforms: &'a TransformHelper<'a, 'a>,
     colliders: &'a [SolverCollider],
     wind: Option<&'a crate::cloth::air::WindField>,
+    /// The levels of detail and where the viewer is, if any.
+    lod: Option<(&'a [LodLevel], Vec3A)>,
 }
 
 /// Steps one cloth (see [`step_cloths`]); what it diverged with, if it did.
@@ -213,10 +232,6 @@ fn step_cloth<C: ClothCoupling>(
     // The world's colliders, each checked when gathered (and reported with its entity).
     simulation.colliders.clear();
     simulation.colliders.extend_from_slice(context.colliders);
-    if let Err(err) = sim.set_colliders(&simulation.colliders) {
-        error!("cloth {entity}: the colliders are left out: {err}");
-        let _ = sim.set_colliders(&[]);
-    }
 
     if let Ok(global) = context.transforms.compute_global_transform(entity) {
         for &v in &cloth.pinned_vertices {
@@ -248,8 +263,9 @@ fn step_cloth<C: ClothCoupling>(
         }
     }
 
-    // The entity the cloth follows: its motion over this step, a share of it carried.
+    // The entity the cloth follows: its motion over this step.
     simulation.followed = None;
+    let mut frame = None;
     if let Some(target) = cloth.follow {
         match context
             .transforms
@@ -258,14 +274,12 @@ fn step_cloth<C: ClothCoupling>(
             .and_then(|g| world_pose(&g))
         {
             Some(pose) => {
-                let frame = simulation
-                    .follow
-                    .step(pose, dt, context.drape.teleport.as_ref());
-                sim.follow_frame(&frame, settings.inertia);
-                if let Some(limit) = settings.speed_limit {
-                    sim.limit_speed_relative_to(&frame, limit);
-                }
-                simulation.followed = Some(frame);
+                frame = Some(
+                    simulation
+                        .follow
+                        .step(pose, dt, context.drape.teleport.as_ref()),
+                );
+                simulation.followed = frame;
                 simulation.warned_follow = false;
             }
             None => {
@@ -282,8 +296,79 @@ fn step_cloth<C: ClothCoupling>(
     }
 
     // The air: the cloth's own settings, or the default ones while the wind blows on it.
-    let mut solver = settings.solver;
     let wind = context.wind.filter(|w| settings.wind && !w.is_still());
+
+    // The level of detail: fewer substeps, or frozen (carried with the followed entity).
+    let was_frozen = budget_of(context.lod, simulation.lod_level).is_some_and(|b| b.is_frozen());
+    if let Some((levels, viewer)) = context.lod {
+        let (min, max) = simulation.sim.bounds();
+        let distance = viewer.distance(0.5 * (min + max));
+        simulation.lod_level = level_at(levels, distance, simulation.lod_level);
+    }
+    let budget = budget_of(context.lod, simulation.lod_level);
+    simulation.lod_hidden = budget == Some(LodBudget::Hidden);
+    if budget.is_some_and(|b| b.is_frozen()) {
+        let sim = &mut simulation.sim;
+        match &frame {
+            Some(frame) => sim.carry_rigidly(frame),
+            None => sim.fall_asleep(),
+        }
+        simulation.sleep.wake();
+        simulation.slept_with = None;
+        return None;
+    }
+    let thawed = was_frozen;
+
+    let sleep = sleep_settings(entity, settings, &mut simulation.warned_sleep);
+    let disturbance = sleep.map(|sleep| {
+        disturbance(
+            &simulation.sim,
+            &simulation.colliders,
+            frame.as_ref(),
+            wind.is_some(),
+            coupled.is_some(),
+            &sleep,
+        )
+    });
+    let sim = &mut simulation.sim;
+    if simulation.sleep.is_asleep() {
+        let changed = simulation.slept_with != Some((*settings, context.drape.gravity));
+        match (disturbance, changed) {
+            (Some(None), false) => {
+                sim.fall_asleep();
+                return None;
+            }
+            (cause, _) => {
+                debug!(
+                    "cloth {entity} wakes: {}",
+                    match cause {
+                        _ if changed => "its settings or the gravity changed",
+                        Some(Some(cause)) => cause,
+                        _ => "it may not sleep",
+                    }
+                );
+                simulation.sleep.wake();
+                simulation.slept_with = None;
+                simulation.drawn_asleep = None;
+            }
+        }
+    }
+
+    if let Err(err) = sim.set_colliders(&simulation.colliders) {
+        error!("cloth {entity}: the colliders are left out: {err}");
+        let _ = sim.set_colliders(&[]);
+    }
+    // A share of the followed entity's motion carried.
+    if let Some(frame) = &frame {
+        sim.follow_frame(frame, settings.inertia);
+        if let Some(limit) = settings.speed_limit {
+            sim.limit_speed_relative_to(frame, limit);
+        }
+    }
+    let mut solver = settings.solver;
+    if let Some(LodBudget::Substeps(n)) = budget {
+        solver.substeps = solver.substeps.min(n.max(1));
+    }
     if solver.air.is_none() && wind.is_some() {
         solver.air = Some(AirSettings::default());
     }
@@ -310,6 +395,14 @@ fn step_cloth<C: ClothCoupling>(
         return None;
     }
     simulation.warned_step_input = false;
+    if thawed && let Some(frame) = &frame {
+        // Back from a frozen level: whatever the contacts had to undo after the ride (the
+        // joints moved under the carried cloth) does not fling it off.
+        let limit = settings
+            .speed_limit
+            .unwrap_or(ClothSettings::DEFAULT_SPEED_LIMIT);
+        sim.limit_speed_relative_to(frame, limit);
+    }
     if settings.solver.volume.is_some()
         && let Some(err) = sim.volume_error()
         && !simulation.warned_volume
@@ -347,6 +440,16 @@ fn step_cloth<C: ClothCoupling>(
             divergence,
             response: settings.on_divergence,
         });
+    }
+    if let (Some(sleep), Some(disturbance)) = (sleep, disturbance) {
+        let positions = &sim.state().positions;
+        if simulation
+            .sleep
+            .observe(positions, disturbance.is_some(), dt, &sleep)
+        {
+            sim.fall_asleep();
+            simulation.slept_with = Some((*settings, context.drape.gravity));
+        }
     }
     None
 }

@@ -7,7 +7,7 @@ use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
 use bevy::prelude::*;
 
 use super::components::{Cloth, ClothDebugColors, ClothSimulation};
-use crate::cloth::debug_colors::{ClothPaint, GREY, PaintTarget, debug_colors};
+use crate::cloth::debug_colors::{ClothPaint, DebugColorMode, GREY, PaintTarget, debug_colors};
 use crate::cloth::mesh::{vertex_normals, write_colors, write_normals};
 use crate::collide::skin::drawn_poses;
 use crate::schedule::{DrapeTimings, world_pose};
@@ -35,6 +35,19 @@ pub(super) fn write_back_meshes(
     let alpha = fixed.overstep_fraction().clamp(0.0, 1.0);
     for (entity, mut simulation, cloth, mesh3d, global, paint) in &mut cloths {
         let simulation = &mut *simulation;
+        // A sleeping cloth drawn from the same poses as last time is drawn already.
+        let drawn_from = (
+            *global,
+            cloth
+                .follow
+                .and_then(|e| followed.get(e).ok())
+                .and_then(world_pose),
+        );
+        let asleep = simulation.sleep.is_asleep() && debug.0 == DebugColorMode::Off;
+        if asleep && simulation.drawn_asleep == Some(drawn_from) {
+            continue;
+        }
+        simulation.drawn_asleep = asleep.then_some(drawn_from);
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
             continue;
         };
@@ -60,12 +73,7 @@ pub(super) fn write_back_meshes(
         let per_triangle = !simulation.colors.is_empty() && target == PaintTarget::Triangles;
         let to_local = global.affine().inverse();
         // The followed entity's poses at the last two fixed steps and as drawn now.
-        let frame = simulation.followed.zip(
-            cloth
-                .follow
-                .and_then(|e| followed.get(e).ok())
-                .and_then(world_pose),
-        );
+        let frame = simulation.followed.zip(drawn_from.1);
         let current = &simulation.sim.state().positions;
         if current.len() != simulation.render_from.len() {
             continue;

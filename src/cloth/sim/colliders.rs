@@ -101,6 +101,54 @@ impl ClothSolver {
         }
     }
 
+    /// Carries the whole cloth rigidly with the frame's motion over the step, without solving
+    /// it: positions, previous positions and pins moved by the step's pose change (all of it,
+    /// or the jump of a teleport), and every free particle given the frame's velocity field
+    /// at its new position, so that when it is stepped again it goes on from rest in the
+    /// frame. A cloth held at a distant level of detail rides on its character this way; its
+    /// last step's timings are zero. A frame that is not finite leaves the cloth as it is.
+    pub fn carry_rigidly(&mut self, frame: &FrameStep) {
+        self.timings = Default::default();
+        let map = if frame.jumped {
+            frame.jump_carry()
+        } else {
+            frame.carry(1.0)
+        };
+        if !(map.rotation.is_finite()
+            && map.to.is_finite()
+            && map.pivot.is_finite()
+            && frame.linear_velocity.is_finite()
+            && frame.angular_velocity.is_finite())
+        {
+            return;
+        }
+        let state = &mut self.state;
+        for p in state
+            .positions
+            .iter_mut()
+            .chain(state.previous_positions.iter_mut())
+        {
+            *p = map.point(*p);
+        }
+        for ((v, &p), &w) in state
+            .velocities
+            .iter_mut()
+            .zip(&state.positions)
+            .zip(&state.inverse_masses)
+        {
+            *v = if w == 0.0 {
+                Vec3A::ZERO
+            } else {
+                frame.velocity_at(p)
+            };
+        }
+        for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
+            pin.start = map.point(pin.start);
+            pin.end = map.point(pin.end);
+        }
+        self.contacts.carry_anchors(|p| map.point(p));
+    }
+
     /// Limits every free particle's speed relative to the frame it follows to `max_speed`,
     /// m/s: the part of its velocity beyond the frame's velocity field at the particle
     /// (`v + omega x r`, the share the cloth feels after [`ClothSolver::follow_frame`]) is

@@ -35,6 +35,7 @@ mod halves;
 pub(crate) mod parallel;
 mod passes;
 mod pins;
+mod sleep;
 mod step;
 mod timings;
 mod volume;
@@ -43,6 +44,8 @@ mod wind;
 use halves::Halves;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
+pub use sleep::SleepSettings;
+pub(crate) use sleep::{SleepClock, colliders_move_near, frame_moves};
 use timings::Laps;
 pub use timings::StepTimings;
 

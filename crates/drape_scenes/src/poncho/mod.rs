@@ -82,6 +82,9 @@ pub struct PonchoScene {
     /// Characters in ponchos, standing in a row along +X 4 m apart: the first makes
     /// `motion`, the others [`CROWD_MOTIONS`] in turn (the `crowd` scene). Default: `1`.
     pub characters: u32,
+    /// How many of the crowd's characters (the last ones in the row) stand still
+    /// ([`CharacterMotion::Stand`], no wave) instead of making their motion. Default: `0`.
+    pub standing: u32,
     /// When the poncho counts as diverged. Default: strain 200%, speed 500 m/s. Walking, its
     /// collar can snag on the neck and stretch one edge past 100% for a few steps (the
     /// largest seen in 100,000 steps of walking was 134%, after which it let go); a method
@@ -106,6 +109,7 @@ impl Default for PonchoScene {
             inertia: 1.0,
             speed_limit: ClothSettings::default().speed_limit,
             characters: 1,
+            standing: 0,
             divergence: DivergenceBounds {
                 max_strain: 2.0,
                 ..DivergenceBounds::default()
@@ -258,8 +262,10 @@ fn spawn_poncho_scene(
         ClothCollider::plane().with_friction(0.6),
         Transform::default(),
     ));
-    for i in 0..scene.characters.max(1) {
+    let characters = scene.characters.max(1);
+    for i in 0..characters {
         let motion = match i {
+            i if i + scene.standing >= characters => CharacterMotion::Stand,
             0 => scene.motion,
             i => CROWD_MOTIONS[(i as usize - 1) % CROWD_MOTIONS.len()],
         };
@@ -312,7 +318,7 @@ fn spawn_poncho_scene(
         if let Some(simulated) = &simulated {
             poncho.insert(ClothSimulationMesh(simulated.clone()));
         }
-        if scene.wave {
+        if scene.wave && motion != CharacterMotion::Stand {
             commands.entity(character).insert(Waving);
         }
     }

@@ -41,11 +41,14 @@ pub enum CharacterMotion {
     /// Hard: stands (the clip paused) on a platform that carries it to and fro along x,
     /// 3 m either way every 4 s (4.7 m/s at most, 7.4 m/s^2) and bobs 0.1 m up and down.
     Carried,
+    /// Stands still: the clip paused, the character not moved (a crowd's idle characters,
+    /// whose ponchos fall asleep).
+    Stand,
 }
 
 impl CharacterMotion {
     /// Every motion, in the order the `poncho` example's keys cycle them.
-    pub const ALL: [Self; 11] = [
+    pub const ALL: [Self; 12] = [
         Self::InPlace,
         Self::Walk,
         Self::Jog,
@@ -57,6 +60,7 @@ impl CharacterMotion {
         Self::TurnAround,
         Self::Zigzag,
         Self::Carried,
+        Self::Stand,
     ];
 
     /// The hard motions (speed, height or heading changed in one step).
@@ -70,7 +74,7 @@ impl CharacterMotion {
     ];
 
     /// Its name on the command line (`in-place`, `walk`, `jog`, `teleport`, `tour`, `sprint`,
-    /// `hop`, `set-off`, `turn-around`, `zigzag`, `carried`).
+    /// `hop`, `set-off`, `turn-around`, `zigzag`, `carried`, `stand`).
     pub fn name(&self) -> &'static str {
         match self {
             Self::InPlace => "in-place",
@@ -84,6 +88,7 @@ impl CharacterMotion {
             Self::TurnAround => "turn-around",
             Self::Zigzag => "zigzag",
             Self::Carried => "carried",
+            Self::Stand => "stand",
         }
     }
 
@@ -163,7 +168,7 @@ impl CharacterMotion {
         const TURN_AROUND: [Leg; 1] = [sharp(1.5, 4.0, PI)];
         const ZIGZAG: [Leg; 2] = [sharp(0.75, 4.0, PI / 2.0), sharp(0.75, 4.0, -PI / 2.0)];
         match self {
-            Self::InPlace | Self::Teleport | Self::Carried => &[],
+            Self::InPlace | Self::Teleport | Self::Carried | Self::Stand => &[],
             Self::Walk => &WALK,
             Self::Jog => &JOG,
             Self::Tour => &TOUR,
@@ -300,6 +305,9 @@ impl CharacterController {
                 transform.translation.x += 10.0 * sign;
                 self.heading += sign * std::f32::consts::FRAC_PI_2;
             }
+        }
+        if self.motion == CharacterMotion::Stand {
+            return 0.0;
         }
         if self.motion == CharacterMotion::Carried {
             let before = (moving - dt).max(0.0);

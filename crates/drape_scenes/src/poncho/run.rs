@@ -66,6 +66,9 @@ pub struct PonchoRun {
     pub frozen: bool,
     /// Particles in the poncho.
     pub particles: usize,
+    /// How many ponchos were asleep after the last step
+    /// ([`bevy_drape::cloth::plugin::ClothSleeping`]).
+    pub asleep: usize,
     /// Fixed steps run.
     pub steps: u32,
 }
@@ -172,9 +175,15 @@ impl PonchoRun {
     /// The median of one stage's times (`0..4`, see [`PonchoRun::stage_ms`]), or of the whole
     /// step (`4`), milliseconds.
     pub fn median_ms(&self, stage: usize) -> f64 {
+        self.median_ms_after(stage, 0)
+    }
+
+    /// [`PonchoRun::median_ms`] over the steps after the first `skip`.
+    pub fn median_ms_after(&self, stage: usize, skip: usize) -> f64 {
         let values: Vec<f64> = self
             .stage_ms
             .iter()
+            .skip(skip)
             .map(|s| if stage < 4 { s[stage] } else { s.iter().sum() })
             .collect();
         crate::scenes::median(&values)
@@ -441,6 +450,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         .collect();
     let mut ponchos =
         world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
+    run.asleep = ponchos.iter(world).filter(|s| s.is_asleep()).count();
     for (poncho, chest) in chests {
         let Ok(simulation) = ponchos.get(world, poncho) else {
             continue;

@@ -1,0 +1,284 @@
+//! Sleeping: a cloth that has been still for a while stops being solved until something that
+//! could move it does ([`SleepSettings`], [`SleepClock`]), and what "could move it" means for
+//! the solver's own inputs (pins, the dragged particle) and for the colliders and the
+//! followed frame around it.
+
+use bevy::math::Vec3A;
+use bevy::reflect::Reflect;
+
+use super::ClothSolver;
+use crate::collide::trimesh::Aabb;
+use crate::collide::{FrameStep, SolverCollider};
+use crate::error::ClothError;
+
+/// When a still cloth falls asleep: no particle farther than `distance` from where it was
+/// `seconds` ago, with nothing about it moving. Where a particle is, not its velocity, is
+/// what counts: a cloth at rest on a body keeps a few particles trembling by a fraction of a
+/// millimetre, which is not motion anyone sees. A sleeping cloth keeps its pose, at rest, and
+/// costs nothing to step; it wakes in the step anything that could move it moves (see
+/// `ClothSleeping` in the plugin).
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct SleepSettings {
+    /// How far a particle may move over `seconds` and still count as still, metres. Default:
+    /// `0.002`.
+    pub distance: f32,
+    /// How long the cloth must stay still before it sleeps, seconds. Default: `1.0`.
+    pub seconds: f32,
+}
+
+impl Default for SleepSettings {
+    fn default() -> Self {
+        Self {
+            distance: 0.002,
+            seconds: 1.0,
+        }
+    }
+}
+
+impl SleepSettings {
+    /// The speed that counts as still, m/s: `distance` over `seconds`. A collider or a
+    /// followed entity moving faster disturbs the cloth.
+    pub fn speed(&self) -> f32 {
+        if self.seconds > 0.0 {
+            self.distance / self.seconds
+        } else {
+            0.0
+        }
+    }
+
+    /// Checks that the distance and the time are finite and not negative.
+    pub fn validate(&self) -> Result<(), ClothError> {
+        for (name, value) in [
+            ("sleep distance", self.distance),
+            ("sleep seconds", self.seconds),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ClothError::InvalidSetting {
+                    name,
+                    value,
+                    reason: "must be finite and not negative",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How long a cloth has been still, and whether it sleeps.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct SleepClock {
+    still_for: f32,
+    asleep: bool,
+    /// Where the particles were when the still time started.
+    reference: Vec<Vec3A>,
+}
+
+impl SleepClock {
+    /// Whether the cloth sleeps.
+    pub(crate) fn is_asleep(&self) -> bool {
+        self.asleep
+    }
+
+    /// Wakes the cloth and starts the still time again.
+    pub(crate) fn wake(&mut self) {
+        self.asleep = false;
+        self.still_for = 0.0;
+        self.reference.clear();
+    }
+
+    /// After a step of `dt` seconds that left the particles at `positions` (`disturbed`:
+    /// something about the cloth moved): whether the cloth falls asleep now.
+    pub(crate) fn observe(
+        &mut self,
+        positions: &[Vec3A],
+        disturbed: bool,
+        dt: f32,
+        settings: &SleepSettings,
+    ) -> bool {
+        if self.asleep {
+            return false;
+        }
+        let limit = settings.distance * settings.distance;
+        let still = !disturbed
+            && self.reference.len() == positions.len()
+            && positions
+                .iter()
+                .zip(&self.reference)
+                .all(|(p, r)| p.distance_squared(*r) <= limit);
+        if still {
+            self.still_for += dt;
+        } else {
+            self.still_for = 0.0;
+            self.reference.clear();
+            self.reference.extend_from_slice(positions);
+        }
+        self.asleep = still && self.still_for >= settings.seconds;
+        self.asleep
+    }
+}
+
+/// Whether the frame moved over the step or moves at its end faster than `speed` anywhere
+/// within `radius` of its origin.
+pub(crate) fn frame_moves(frame: &FrameStep, speed: f32, radius: f32) -> bool {
+    let tolerance = speed * 1e-3;
+    frame.jumped
+        || moved(&frame.start, &frame.end, radius, tolerance)
+        || frame.linear_velocity.length() + frame.angular_velocity.length() * radius > speed
+}
+
+/// Whether any of `colliders` that could reach the box `[min, max]` (grown by `reach`) moves:
+/// its pose changes over the step or its surface moves faster than `speed`. A moving plane
+/// always counts.
+pub(crate) fn colliders_move_near(
+    colliders: &[SolverCollider],
+    min: Vec3A,
+    max: Vec3A,
+    reach: f32,
+    speed: f32,
+) -> bool {
+    let cloth = Aabb {
+        min: min - Vec3A::splat(reach),
+        max: max + Vec3A::splat(reach),
+    };
+    let tolerance = speed * 1e-3;
+    colliders.iter().any(|c| {
+        let radius = match c.swept_bounds(0.0) {
+            Some(bounds) if !bounds.overlaps(&cloth) => return false,
+            Some(bounds) => 0.5 * (bounds.max - bounds.min).length(),
+            // A plane reaches everything: only its own motion counts.
+            None => 0.0,
+        };
+        moved(&c.start, &c.end, radius, tolerance)
+            || c.linear_velocity.length() + c.angular_velocity.length() * radius > speed
+    })
+}
+
+/// Whether a body of `radius` about its origin moved more than `tolerance` from `start` to
+/// `end`.
+fn moved(
+    start: &crate::collide::RigidPose,
+    end: &crate::collide::RigidPose,
+    radius: f32,
+    tolerance: f32,
+) -> bool {
+    let turn = end.rotation * start.rotation.inverse();
+    start.translation.distance(end.translation) + 2.0 * turn.xyz().length() * radius > tolerance
+}
+
+impl ClothSolver {
+    /// Whether the solver's own inputs hold the cloth still: no particle is grabbed and every
+    /// pin's target is where the pin is.
+    pub fn pins_hold_still(&self) -> bool {
+        const TOLERANCE: f32 = 1e-6;
+        self.drag.is_none()
+            && self.pins.iter().all(|pin| {
+                self.state
+                    .positions
+                    .get(pin.particle as usize)
+                    .is_some_and(|&p| p.distance(pin.end) <= TOLERANCE)
+            })
+    }
+
+    /// The box around every particle.
+    pub fn bounds(&self) -> (Vec3A, Vec3A) {
+        let positions = &self.state.positions;
+        positions.iter().fold(
+            (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+    }
+
+    /// Puts the cloth to sleep where it is: every particle at rest, its last step's timings
+    /// zero.
+    pub fn fall_asleep(&mut self) {
+        let state = &mut self.state;
+        state.velocities.fill(Vec3A::ZERO);
+        state.previous_positions.clone_from(&state.positions);
+        self.timings = Default::default();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collide::{RigidPose, SolverShape};
+    use bevy::math::Quat;
+
+    #[test]
+    fn the_clock_sleeps_after_the_still_time_and_restarts_on_motion() {
+        let settings = SleepSettings {
+            distance: 0.01,
+            seconds: 0.5,
+        };
+        let mut clock = SleepClock::default();
+        let dt = 0.1;
+        let at = |x: f32| [Vec3A::new(x, 0.0, 0.0), Vec3A::ONE];
+        // Trembling by less than the distance counts as still; moving past it, or a
+        // disturbance, starts the count again.
+        assert!(!clock.observe(&at(0.0), false, dt, &settings));
+        for k in 0..3 {
+            assert!(!clock.observe(&at(0.004 * (k % 2) as f32), false, dt, &settings));
+        }
+        assert!(!clock.observe(&at(0.02), false, dt, &settings));
+        assert!(!clock.observe(&at(0.02), true, dt, &settings));
+        for k in 0..5 {
+            let fell = clock.observe(&at(0.02 + 0.009 * (k % 2) as f32), false, dt, &settings);
+            assert_eq!(fell, k == 4, "step {k}");
+        }
+        assert!(clock.is_asleep());
+        clock.wake();
+        assert!(!clock.is_asleep());
+        // A slow creep never sleeps if it passes the distance within the time.
+        for k in 0..50 {
+            assert!(!clock.observe(&at(0.03 * k as f32), false, dt, &settings));
+        }
+    }
+
+    #[test]
+    fn bad_sleep_settings_are_refused() {
+        for (distance, seconds) in [(f32::NAN, 1.0), (-1.0, 1.0), (0.01, f32::INFINITY)] {
+            assert!(SleepSettings { distance, seconds }.validate().is_err());
+        }
+        assert!(SleepSettings::default().validate().is_ok());
+    }
+
+    #[test]
+    fn only_a_moving_collider_within_reach_disturbs() {
+        let pose = |x: f32| RigidPose {
+            translation: Vec3A::new(x, 0.0, 0.0),
+            rotation: Quat::IDENTITY,
+        };
+        let sphere = SolverShape::Sphere { radius: 0.1 };
+        let still = SolverCollider::fixed(sphere.clone(), pose(0.0));
+        let mut moving = still.clone();
+        moving.end = pose(0.01);
+        let mut spinning = still.clone();
+        spinning.angular_velocity = Vec3A::new(0.0, 1.0, 0.0);
+        let (min, max) = (Vec3A::splat(-0.5), Vec3A::splat(0.5));
+        let speed = 0.005;
+        assert!(!colliders_move_near(
+            std::slice::from_ref(&still),
+            min,
+            max,
+            0.0,
+            speed
+        ));
+        assert!(colliders_move_near(
+            std::slice::from_ref(&moving),
+            min,
+            max,
+            0.0,
+            speed
+        ));
+        assert!(colliders_move_near(&[spinning], min, max, 0.0, speed));
+        // The same motion 10 m away.
+        let far = |c: &SolverCollider| {
+            let mut c = c.clone();
+            c.start.translation.x += 10.0;
+            c.end.translation.x += 10.0;
+            c
+        };
+        assert!(!colliders_move_near(&[far(&moving)], min, max, 0.1, speed));
+        assert!(colliders_move_near(&[far(&moving)], min, max, 10.0, speed));
+    }
+}
