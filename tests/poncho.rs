@@ -175,3 +175,79 @@ fn walking_through_the_world_the_stance_foot_does_not_skate() {
     }
     assert!(checked >= 1, "no whole stance in the window");
 }
+
+#[test]
+fn standing_characters_ponchos_sleep_and_the_one_pushed_wakes_in_that_step() {
+    use bevy::prelude::{App, Assets, Mesh, Mesh3d, Name, Transform, With};
+    use bevy_drape::cloth::plugin::ClothSimulation;
+    use drape_scenes::poncho::{Character, Poncho, headless_app};
+    // Two characters standing 4 m apart (the crowd's spacing), their ponchos dropped on them;
+    // strongly damped so they come to rest in a few seconds.
+    let mut app = headless_app(PonchoScene {
+        characters: 2,
+        standing: 2,
+        solver: SolverSettings {
+            damping: 4.0,
+            ..PonchoScene::default().solver
+        },
+        ..PonchoScene::default()
+    });
+    crate::common::update_until_loaded(&mut app, |world| {
+        let ids: Vec<_> = world
+            .query_filtered::<&Mesh3d, With<Poncho>>()
+            .iter(world)
+            .map(|mesh| mesh.0.id())
+            .collect();
+        let meshes = world.resource::<Assets<Mesh>>();
+        !ids.is_empty() && ids.iter().all(|&id| meshes.get(id).is_some())
+    });
+    let ponchos = |app: &mut App| {
+        let world = app.world_mut();
+        let mut ponchos: Vec<(String, bool)> = world
+            .query_filtered::<(&Name, &ClothSimulation), With<Poncho>>()
+            .iter(world)
+            .map(|(name, s)| (name.to_string(), s.is_asleep()))
+            .collect();
+        ponchos.sort();
+        ponchos
+    };
+    let mut asleep = false;
+    for _ in 0..30 * 60 {
+        app.update();
+        let now = ponchos(&mut app);
+        if now.len() == 2 && now.iter().all(|(_, asleep)| *asleep) {
+            asleep = true;
+            break;
+        }
+    }
+    assert!(
+        asleep,
+        "both ponchos sleep within 30 s: {:?}",
+        ponchos(&mut app)
+    );
+    // The first character is shoved 5 cm sideways.
+    let world = app.world_mut();
+    let mut characters = world.query_filtered::<(&Name, &mut Transform), With<Character>>();
+    for (name, mut transform) in characters.iter_mut(world) {
+        if name.as_str() == "character" {
+            transform.translation.x += 0.05;
+        }
+    }
+    let steps = |app: &App| {
+        app.world()
+            .resource::<bevy_drape::schedule::DrapeTimings>()
+            .steps
+    };
+    let before = steps(&app);
+    while steps(&app) == before {
+        app.update();
+    }
+    assert_eq!(
+        ponchos(&mut app),
+        vec![
+            ("poncho".to_string(), false),
+            ("poncho 1".to_string(), true)
+        ],
+        "the pushed character's poncho woke in that step, the other sleeps on"
+    );
+}
