@@ -8,8 +8,8 @@ use bevy::transform::helper::TransformHelper;
 
 use super::components::{ClothLevelOfDetail, ClothSettings, ClothSimulation, ClothSleeping};
 use crate::cloth::lod::{LodLevel, validate_levels};
-use crate::cloth::sim::{ClothSolver, SleepSettings, colliders_move_near, frame_moves};
-use crate::collide::{FrameStep, SolverCollider};
+use crate::cloth::sim::{CREEP, ClothSolver, SleepSettings, colliders_move_near, frame_moves};
+use crate::collide::{FrameStep, RigidPose, SolverCollider};
 
 /// Gives every sleeping cloth a [`ClothSleeping`] marker and takes it from every awake one;
 /// hides every cloth its level of detail hides and shows it again as it was when it comes
@@ -55,6 +55,7 @@ pub(super) fn mark_cloths(
 pub(super) struct LodWarnings {
     levels: bool,
     viewer: Option<Entity>,
+    camera: bool,
 }
 
 /// The levels of detail in use and where the viewer is, if any: `None` without levels, with
@@ -100,8 +101,23 @@ pub(super) fn lod_viewer<'a>(
             .iter()
             .find(|(camera, _)| camera.is_active)
             .map(|(_, global)| global.translation_vec3a())
-    })?;
-    Some((&lod.levels, at))
+    });
+    match at {
+        Some(at) => {
+            warned.camera = false;
+            Some((&lod.levels, at))
+        }
+        None => {
+            if !warned.camera {
+                warn!(
+                    "ClothLevelOfDetail: no viewer and no active camera; every cloth keeps its \
+                     full budget"
+                );
+                warned.camera = true;
+            }
+            None
+        }
+    }
 }
 
 /// The cloth's sleep settings, if it may sleep: `None` if it never sleeps, the default ones
@@ -127,8 +143,41 @@ pub(super) fn sleep_settings(
     }
 }
 
+/// What a cloth fell asleep with: its settings, the gravity and where its followed entity was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Slept {
+    pub(super) settings: ClothSettings,
+    pub(super) gravity: Vec3,
+    pub(super) followed: Option<RigidPose>,
+}
+
+impl Slept {
+    /// Whether the settings and the gravity are those the cloth fell asleep with (a field
+    /// that is not a number counts as unchanged, so NaN settings do not wake it every step)
+    /// and its followed entity has not crept away from where it was (by [`CREEP`]).
+    pub(super) fn still(
+        &self,
+        settings: &ClothSettings,
+        gravity: Vec3,
+        frame: Option<&FrameStep>,
+    ) -> bool {
+        let same_settings =
+            self.settings == *settings || format!("{:?}", self.settings) == format!("{settings:?}");
+        let in_place = match (self.followed, frame) {
+            (None, None) => true,
+            (Some(then), Some(now)) => {
+                then.translation.distance(now.end.translation) <= CREEP
+                    && then.rotation.angle_between(now.end.rotation) <= CREEP
+            }
+            _ => false,
+        };
+        same_settings && self.gravity == gravity && in_place
+    }
+}
+
 /// What would move a still cloth this step, if anything: a pin or attachment target or the
-/// drag, its followed entity, a collider near it, the wind, or a coupling.
+/// drag, its followed entity, a collider near it (or one come, gone or changed since it was
+/// last solved), the wind, or a coupling.
 pub(super) fn disturbance(
     sim: &ClothSolver,
     colliders: &[SolverCollider],
@@ -150,12 +199,13 @@ pub(super) fn disturbance(
     }
     let (min, max) = sim.bounds();
     if let Some(frame) = frame
-        && frame_moves(frame, sleep.speed(), 0.5 * (max - min).length())
+        && frame_moves(frame, sleep.speed(), min, max)
     {
         return Some("its followed entity moves");
     }
     if colliders_move_near(
         colliders,
+        sim.colliders(),
         min,
         max,
         REACH + sim.contact_thickness(),

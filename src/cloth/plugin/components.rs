@@ -302,13 +302,15 @@ pub struct ClothSimulation {
     /// How long the cloth has been still, and whether it sleeps ([`ClothSettings::sleep`]).
     pub(super) sleep: SleepClock,
     /// The settings and the gravity the cloth fell asleep with.
-    pub(super) slept_with: Option<(ClothSettings, Vec3)>,
+    pub(super) slept_with: Option<super::budget::Slept>,
     pub(super) warned_sleep: bool,
     /// What the mesh was last drawn from while the cloth sleeps (the cloth's and the followed
     /// entity's drawn poses): the same again is not redrawn.
-    pub(super) drawn_asleep: Option<(GlobalTransform, Option<RigidPose>)>,
+    pub(super) drawn_asleep: Option<(GlobalTransform, Option<RigidPose>, AssetId<Mesh>)>,
     /// The cloth's level of detail (0: full budget, `k`: [`ClothLevelOfDetail::levels`]`[k - 1]`).
     pub(super) lod_level: usize,
+    /// Whether its level of detail froze it in the last step.
+    pub(super) lod_frozen: bool,
     /// Whether its level of detail hides it, and its visibility before it was hidden.
     pub(super) lod_hidden: bool,
     pub(super) hidden_from: Option<Visibility>,

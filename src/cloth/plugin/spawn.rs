@@ -100,6 +100,7 @@ fn build_simulation(
             warned_sleep: false,
             drawn_asleep: None,
             lod_level: 0,
+            lod_frozen: false,
             lod_hidden: false,
             hidden_from: None,
         },

@@ -6,7 +6,7 @@ use bevy::math::Vec3A;
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
-use super::budget::{LodWarnings, disturbance, lod_viewer, sleep_settings};
+use super::budget::{LodWarnings, Slept, disturbance, lod_viewer, sleep_settings};
 use super::components::{
     Cloth, ClothDiverged, ClothLevelOfDetail, ClothSettings, ClothSimulation, DefaultClothSettings,
     OnDivergence,
@@ -299,15 +299,26 @@ fn step_cloth<C: ClothCoupling>(
     let wind = context.wind.filter(|w| settings.wind && !w.is_still());
 
     // The level of detail: fewer substeps, or frozen (carried with the followed entity).
-    let was_frozen = budget_of(context.lod, simulation.lod_level).is_some_and(|b| b.is_frozen());
-    if let Some((levels, viewer)) = context.lod {
-        let (min, max) = simulation.sim.bounds();
-        let distance = viewer.distance(0.5 * (min + max));
-        simulation.lod_level = level_at(levels, distance, simulation.lod_level);
-    }
+    let was_frozen = simulation.lod_frozen;
+    simulation.lod_level = match context.lod {
+        Some((levels, viewer)) => {
+            let (min, max) = simulation.sim.bounds();
+            level_at(
+                levels,
+                viewer.distance(0.5 * (min + max)),
+                simulation.lod_level,
+            )
+        }
+        None => 0,
+    };
     let budget = budget_of(context.lod, simulation.lod_level);
     simulation.lod_hidden = budget == Some(LodBudget::Hidden);
-    if budget.is_some_and(|b| b.is_frozen()) {
+    // A cloth that follows nothing is frozen where it is, unless its pins move: then it is
+    // solved (a frozen pin would jump to its target when thawed).
+    let frozen = budget.is_some_and(|b| b.is_frozen())
+        && (frame.is_some() || simulation.sim.pins_hold_still());
+    simulation.lod_frozen = frozen;
+    if frozen {
         let sim = &mut simulation.sim;
         match &frame {
             Some(frame) => sim.carry_rigidly(frame),
@@ -332,7 +343,10 @@ fn step_cloth<C: ClothCoupling>(
     });
     let sim = &mut simulation.sim;
     if simulation.sleep.is_asleep() {
-        let changed = simulation.slept_with != Some((*settings, context.drape.gravity));
+        let changed = !simulation
+            .slept_with
+            .as_ref()
+            .is_some_and(|slept| slept.still(settings, context.drape.gravity, frame.as_ref()));
         match (disturbance, changed) {
             (Some(None), false) => {
                 sim.fall_asleep();
@@ -342,7 +356,9 @@ fn step_cloth<C: ClothCoupling>(
                 debug!(
                     "cloth {entity} wakes: {}",
                     match cause {
-                        _ if changed => "its settings or the gravity changed",
+                        _ if changed => {
+                            "its settings or the gravity changed, or its followed entity crept"
+                        }
                         Some(Some(cause)) => cause,
                         _ => "it may not sleep",
                     }
@@ -448,7 +464,11 @@ fn step_cloth<C: ClothCoupling>(
             .observe(positions, disturbance.is_some(), dt, &sleep)
         {
             sim.fall_asleep();
-            simulation.slept_with = Some((*settings, context.drape.gravity));
+            simulation.slept_with = Some(Slept {
+                settings: *settings,
+                gravity: context.drape.gravity,
+                followed: frame.map(|f| f.end),
+            });
         }
     }
     None

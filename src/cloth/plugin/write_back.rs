@@ -42,12 +42,14 @@ pub(super) fn write_back_meshes(
                 .follow
                 .and_then(|e| followed.get(e).ok())
                 .and_then(world_pose),
+            mesh3d.0.id(),
         );
         let asleep = simulation.sleep.is_asleep() && debug.0 == DebugColorMode::Off;
         if asleep && simulation.drawn_asleep == Some(drawn_from) {
             continue;
         }
-        simulation.drawn_asleep = asleep.then_some(drawn_from);
+        // Set again once the mesh is written.
+        simulation.drawn_asleep = None;
         let Some(mut mesh) = meshes.get_mut(&mesh3d.0) else {
             continue;
         };
@@ -74,6 +76,8 @@ pub(super) fn write_back_meshes(
         let to_local = global.affine().inverse();
         // The followed entity's poses at the last two fixed steps and as drawn now.
         let frame = simulation.followed.zip(drawn_from.1);
+        // Drawn at the cloth's last positions (a sleeping cloth's `render_from` is those).
+        let alpha = if asleep { 1.0 } else { alpha };
         let current = &simulation.sim.state().positions;
         if current.len() != simulation.render_from.len() {
             continue;
@@ -149,6 +153,7 @@ pub(super) fn write_back_meshes(
                 &simulation.base_colors
             };
             write_colors(&mut mesh, colors);
+            simulation.drawn_asleep = asleep.then_some(drawn_from);
             continue;
         }
         simulation.flat.set(
@@ -203,6 +208,7 @@ pub(super) fn write_back_meshes(
             &simulation.vertex_colors
         };
         write_colors(&mut mesh, colors);
+        simulation.drawn_asleep = asleep.then_some(drawn_from);
     }
     if let Some(mut timings) = timings {
         timings.write_back = start.elapsed();

@@ -45,7 +45,7 @@ use halves::Halves;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
 pub use sleep::SleepSettings;
-pub(crate) use sleep::{SleepClock, colliders_move_near, frame_moves};
+pub(crate) use sleep::{CREEP, SleepClock, colliders_move_near, frame_moves};
 use timings::Laps;
 pub use timings::StepTimings;
 

@@ -117,20 +117,34 @@ impl SleepClock {
     }
 }
 
-/// Whether the frame moved over the step or moves at its end faster than `speed` anywhere
-/// within `radius` of its origin.
-pub(crate) fn frame_moves(frame: &FrameStep, speed: f32, radius: f32) -> bool {
+/// How far a collider or the followed entity may have crept from where it was when the cloth
+/// fell asleep before the cloth wakes, metres.
+pub(crate) const CREEP: f32 = 1e-4;
+
+/// The distance from `origin` to the farthest corner of the box `[min, max]`: how far from a
+/// body's origin a point of the cloth can be.
+fn farthest_corner(origin: Vec3A, min: Vec3A, max: Vec3A) -> f32 {
+    (origin - min).abs().max((max - origin).abs()).length()
+}
+
+/// Whether the frame moved over the step, or moves at its end faster than `speed` anywhere in
+/// the cloth's box `[min, max]`.
+pub(crate) fn frame_moves(frame: &FrameStep, speed: f32, min: Vec3A, max: Vec3A) -> bool {
+    let radius = farthest_corner(frame.end.translation, min, max);
     let tolerance = speed * 1e-3;
     frame.jumped
         || moved(&frame.start, &frame.end, radius, tolerance)
         || frame.linear_velocity.length() + frame.angular_velocity.length() * radius > speed
 }
 
-/// Whether any of `colliders` that could reach the box `[min, max]` (grown by `reach`) moves:
-/// its pose changes over the step or its surface moves faster than `speed`. A moving plane
-/// always counts.
+/// Whether the colliders that could reach the cloth's box `[min, max]` (grown by `reach` and
+/// each collider's margin) are not those the cloth was last solved with (`solved_with`): one
+/// of them moves over the step or its surface moves faster than `speed` anywhere in the box,
+/// one came or went, changed its shape, margin or material, or crept more than [`CREEP`] from
+/// where it was. Planes reach everything.
 pub(crate) fn colliders_move_near(
     colliders: &[SolverCollider],
+    solved_with: &[SolverCollider],
     min: Vec3A,
     max: Vec3A,
     reach: f32,
@@ -140,17 +154,43 @@ pub(crate) fn colliders_move_near(
         min: min - Vec3A::splat(reach),
         max: max + Vec3A::splat(reach),
     };
+    let near = |c: &&SolverCollider| {
+        c.swept_bounds(c.margin)
+            .is_none_or(|bounds| bounds.overlaps(&cloth))
+    };
     let tolerance = speed * 1e-3;
-    colliders.iter().any(|c| {
-        let radius = match c.swept_bounds(0.0) {
-            Some(bounds) if !bounds.overlaps(&cloth) => return false,
-            Some(bounds) => 0.5 * (bounds.max - bounds.min).length(),
-            // A plane reaches everything: only its own motion counts.
-            None => 0.0,
-        };
+    let moving = colliders.iter().filter(near).any(|c| {
+        let radius = farthest_corner(c.end.translation, cloth.min, cloth.max);
         moved(&c.start, &c.end, radius, tolerance)
             || c.linear_velocity.length() + c.angular_velocity.length() * radius > speed
-    })
+    });
+    if moving {
+        return true;
+    }
+    // The solver keeps the valid ones only.
+    let (mut now, mut then) = (
+        colliders
+            .iter()
+            .filter(|c| c.validate().is_ok())
+            .filter(near),
+        solved_with.iter().filter(near),
+    );
+    loop {
+        match (now.next(), then.next()) {
+            (None, None) => return false,
+            (Some(a), Some(b)) => {
+                let radius = farthest_corner(b.end.translation, cloth.min, cloth.max);
+                if a.shape != b.shape
+                    || a.margin != b.margin
+                    || a.material != b.material
+                    || moved(&b.end, &a.end, radius, CREEP)
+                {
+                    return true;
+                }
+            }
+            _ => return true,
+        }
+    }
 }
 
 /// Whether a body of `radius` about its origin moved more than `tolerance` from `start` to
@@ -244,7 +284,7 @@ mod tests {
     }
 
     #[test]
-    fn only_a_moving_collider_within_reach_disturbs() {
+    fn only_a_moving_or_changed_collider_within_reach_disturbs() {
         let pose = |x: f32| RigidPose {
             translation: Vec3A::new(x, 0.0, 0.0),
             rotation: Quat::IDENTITY,
@@ -257,21 +297,31 @@ mod tests {
         spinning.angular_velocity = Vec3A::new(0.0, 1.0, 0.0);
         let (min, max) = (Vec3A::splat(-0.5), Vec3A::splat(0.5));
         let speed = 0.005;
-        assert!(!colliders_move_near(
-            std::slice::from_ref(&still),
-            min,
-            max,
-            0.0,
-            speed
-        ));
-        assert!(colliders_move_near(
-            std::slice::from_ref(&moving),
-            min,
-            max,
-            0.0,
-            speed
-        ));
-        assert!(colliders_move_near(&[spinning], min, max, 0.0, speed));
+        let near = |now: &SolverCollider, then: &SolverCollider, reach: f32| {
+            colliders_move_near(
+                std::slice::from_ref(now),
+                std::slice::from_ref(then),
+                min,
+                max,
+                reach,
+                speed,
+            )
+        };
+        assert!(!near(&still, &still, 0.0));
+        assert!(near(&moving, &still, 0.0));
+        assert!(near(&spinning, &spinning, 0.0));
+        // Grown, or come or gone, since the cloth was solved.
+        let mut grown = still.clone();
+        grown.shape = SolverShape::Sphere { radius: 0.12 };
+        assert!(near(&grown, &still, 0.0));
+        let one = std::slice::from_ref(&still);
+        assert!(colliders_move_near(one, &[], min, max, 0.0, speed));
+        assert!(colliders_move_near(&[], one, min, max, 0.0, speed));
+        // Crept by 0.5 mm in steps too small to see one at a time.
+        let mut crept = still.clone();
+        crept.start = pose(5e-4);
+        crept.end = pose(5e-4);
+        assert!(near(&crept, &still, 0.0));
         // The same motion 10 m away.
         let far = |c: &SolverCollider| {
             let mut c = c.clone();
@@ -279,7 +329,7 @@ mod tests {
             c.end.translation.x += 10.0;
             c
         };
-        assert!(!colliders_move_near(&[far(&moving)], min, max, 0.1, speed));
-        assert!(colliders_move_near(&[far(&moving)], min, max, 10.0, speed));
+        assert!(!near(&far(&moving), &far(&still), 0.1));
+        assert!(near(&far(&moving), &far(&still), 10.0));
     }
 }
