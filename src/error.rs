@@ -93,6 +93,24 @@ pub enum ClothError {
     },
 }
 
+impl ClothError {
+    /// The first of the named `settings` that is not finite and at least 0, as an
+    /// [`ClothError::InvalidSetting`].
+    pub(crate) fn require_non_negative(settings: &[(&'static str, f32)]) -> Result<(), Self> {
+        match settings
+            .iter()
+            .find(|(_, value)| !(value.is_finite() && *value >= 0.0))
+        {
+            Some(&(name, value)) => Err(Self::InvalidSetting {
+                name,
+                value,
+                reason: "finite and >= 0",
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Something in the input that was left out or adjusted; the cloth is still built.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ClothWarning {

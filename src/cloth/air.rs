@@ -58,20 +58,11 @@ impl Default for AirSettings {
 impl AirSettings {
     /// Checks that every coefficient is finite and not negative.
     pub(crate) fn validate(&self) -> Result<(), ClothError> {
-        for (name, value) in [
+        ClothError::require_non_negative(&[
             ("air.drag", self.drag),
             ("air.lift", self.lift),
             ("air.density", self.density),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(ClothError::InvalidSetting {
-                    name,
-                    value,
-                    reason: "finite and >= 0",
-                });
-            }
-        }
-        Ok(())
+        ])
     }
 
     /// Whether the air pushes at all.

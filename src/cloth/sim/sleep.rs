@@ -48,19 +48,10 @@ impl SleepSettings {
 
     /// Checks that the distance and the time are finite and not negative.
     pub fn validate(&self) -> Result<(), ClothError> {
-        for (name, value) in [
+        ClothError::require_non_negative(&[
             ("sleep distance", self.distance),
             ("sleep seconds", self.seconds),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(ClothError::InvalidSetting {
-                    name,
-                    value,
-                    reason: "must be finite and not negative",
-                });
-            }
-        }
-        Ok(())
+        ])
     }
 }
 
