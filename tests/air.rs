@@ -73,8 +73,10 @@ fn a_flat_sheet_falls_at_the_terminal_velocity_of_the_drag_law() {
                 "{method:?}: {} m/s, the drag law gives {expected}",
                 -v.y
             );
-            // It falls straight: a flat sheet flutters a little, sideways drift under 0.2%.
-            assert!(v.with_y(0.0).length() < 2e-3 * expected);
+            // It falls straight: a flat plate falling face down is unstable, and its flutter
+            // grows from the rounding (0.002% to 0.5% of the fall's speed sideways, wherever
+            // the sheet starts), but it does not tumble or glide off: under 1%.
+            assert!(v.with_y(0.0).length() < 1e-2 * expected);
         }
     }
 }

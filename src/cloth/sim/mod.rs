@@ -32,6 +32,7 @@ mod adaptive;
 mod colliders;
 pub(crate) mod diagnostics;
 mod halves;
+mod origin;
 pub(crate) mod parallel;
 mod passes;
 mod pins;
@@ -42,6 +43,7 @@ mod volume;
 mod wind;
 
 use halves::Halves;
+pub use origin::ORIGIN_GRID;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
 pub use sleep::SleepSettings;
@@ -382,6 +384,9 @@ impl ClothSolver {
     /// non-finite `dt`, or finite ones too large to step ([`MAX_SPEED_CHANGE`], [`MAX_STEP`])
     /// return the error and leave the cloth as it was; `dt = 0` does nothing.
     ///
+    /// A cloth far from the world's origin is stepped near it, moved by a multiple of
+    /// [`ORIGIN_GRID`] and back, so that it rests as still 200 m out as at the origin.
+    ///
     /// One thread; [`ClothSolver::step_with`] splits a large cloth over two.
     pub fn step(
         &mut self,
@@ -499,6 +504,13 @@ impl ClothSolver {
             self.find_self_contacts(acceleration, dt);
             self.timings.self_collision = laps.lap();
         }
+        // Far from the world's origin, stepped near it (`origin.rs`); a coupling's own
+        // particles are in world coordinates, so a coupled cloth is stepped where it is.
+        let origin = match coupling {
+            None => self.step_origin(),
+            Some(_) => Vec3A::ZERO,
+        };
+        self.move_origin_to(origin);
         match settings
             .adaptive
             .filter(|_| settings.method != SolverMethod::MassSpring && coupling.is_none())
@@ -506,6 +518,7 @@ impl ClothSolver {
             Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt, join),
             None => self.step_substeps(settings, acceleration, dt, join, coupling),
         }
+        self.move_origin_to(-origin);
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
         }
