@@ -43,6 +43,18 @@ impl ClothState {
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
+
+    /// Moves every position and previous position by `map` (a rigid motion, or a move of the
+    /// origin); the velocities are left to the caller.
+    pub(crate) fn map_points(&mut self, map: impl Fn(Vec3A) -> Vec3A) {
+        for p in self
+            .positions
+            .iter_mut()
+            .chain(self.previous_positions.iter_mut())
+        {
+            *p = map(*p);
+        }
+    }
 }
 
 /// `1 / mass`, or 0 (held in place) for a particle without mass.

@@ -74,15 +74,8 @@ impl ClothSolver {
             return;
         }
         if !map.is_identity() {
-            let state = &mut self.state;
-            for p in state
-                .positions
-                .iter_mut()
-                .chain(state.previous_positions.iter_mut())
-            {
-                *p = map.point(*p);
-            }
-            for v in &mut state.velocities {
+            self.state.map_points(|p| map.point(p));
+            for v in &mut self.state.velocities {
                 *v = map.vector(*v);
             }
             for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
@@ -122,14 +115,8 @@ impl ClothSolver {
         {
             return;
         }
+        self.state.map_points(|p| map.point(p));
         let state = &mut self.state;
-        for p in state
-            .positions
-            .iter_mut()
-            .chain(state.previous_positions.iter_mut())
-        {
-            *p = map.point(*p);
-        }
         for ((v, &p), &w) in state
             .velocities
             .iter_mut()

@@ -45,14 +45,7 @@ impl ClothSolver {
         if offset == Vec3A::ZERO {
             return;
         }
-        let state = &mut self.state;
-        for p in state
-            .positions
-            .iter_mut()
-            .chain(state.previous_positions.iter_mut())
-        {
-            *p -= offset;
-        }
+        self.state.map_points(|p| p - offset);
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start -= offset;
             pin.end -= offset;

@@ -11,16 +11,19 @@ use crate::collide::trimesh::Aabb;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::ClothError;
 
-/// When a still cloth falls asleep: no particle farther than `distance` from where it was
-/// `seconds` ago, with nothing about it moving. Where a particle is, not its velocity, is
-/// what counts: a cloth at rest on a body keeps a few particles trembling by a fraction of a
-/// millimetre, which is not motion anyone sees. A sleeping cloth keeps its pose, at rest, and
-/// costs nothing to step; it wakes in the step anything that could move it moves (see
-/// `ClothSleeping` in the plugin).
+/// When a still cloth falls asleep: its particles within `distance` of where they were
+/// `seconds` ago (the root mean square of their distances), none farther than
+/// [`SleepSettings::TREMBLE`] times that, with nothing about it moving. Where the particles
+/// are, not their velocities, is what counts, and the cloth as a whole rather than its
+/// liveliest particle: a cloth at rest on a body keeps a few particles trembling by a fraction
+/// of a millimetre a step, and wandering by a few millimetres a second where it is pressed
+/// between colliders, which is not motion anyone sees. A sleeping cloth keeps its pose, at
+/// rest, and costs nothing to step; it wakes in the step anything that could move it moves
+/// (see `ClothSleeping` in the plugin).
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct SleepSettings {
-    /// How far a particle may move over `seconds` and still count as still, metres. Default:
-    /// `0.002`.
+    /// How far the particles may move over `seconds` (the root mean square of their distances)
+    /// and still count as still, metres. Default: `0.002`.
     pub distance: f32,
     /// How long the cloth must stay still before it sleeps, seconds. Default: `1.0`.
     pub seconds: f32,
@@ -36,6 +39,10 @@ impl Default for SleepSettings {
 }
 
 impl SleepSettings {
+    /// How many times [`SleepSettings::distance`] a single particle may move over `seconds`
+    /// while the cloth counts as still.
+    pub const TREMBLE: f32 = 5.0;
+
     /// The speed that counts as still, m/s: `distance` over `seconds`. A collider or a
     /// followed entity moving faster disturbs the cloth.
     pub fn speed(&self) -> f32 {
@@ -90,12 +97,18 @@ impl SleepClock {
             return false;
         }
         let limit = settings.distance * settings.distance;
-        let still = !disturbed
-            && self.reference.len() == positions.len()
-            && positions
-                .iter()
-                .zip(&self.reference)
-                .all(|(p, r)| p.distance_squared(*r) <= limit);
+        let cap = limit * SleepSettings::TREMBLE * SleepSettings::TREMBLE;
+        let still = !disturbed && self.reference.len() == positions.len() && {
+            let mut sum = 0.0f32;
+            let mut within_cap = true;
+            for (p, r) in positions.iter().zip(&self.reference) {
+                let d2 = p.distance_squared(*r);
+                sum += d2;
+                within_cap &= d2 <= cap;
+            }
+            // (NaN compares false: a cloth with a NaN in it is never still.)
+            within_cap && sum <= limit * positions.len() as f32
+        };
         if still {
             self.still_for += dt;
         } else {
@@ -264,6 +277,36 @@ mod tests {
         for k in 0..50 {
             assert!(!clock.observe(&at(0.03 * k as f32), false, dt, &settings));
         }
+    }
+
+    #[test]
+    fn a_few_wandering_particles_count_as_still_one_leaving_does_not() {
+        let settings = SleepSettings {
+            distance: 0.002,
+            seconds: 0.5,
+        };
+        let dt = 0.1;
+        // 100 particles, `wandering` of them moved by `by` from the start.
+        let at = |wandering: usize, by: f32| {
+            (0..100)
+                .map(|i| Vec3A::new(i as f32, if i < wandering { by } else { 0.0 }, 0.0))
+                .collect::<Vec<_>>()
+        };
+        let sleeps_after = |wandering: usize, by: f32| {
+            let mut clock = SleepClock::default();
+            (0..20).position(|k| {
+                let moved = if k % 2 == 1 { by } else { 0.0 };
+                clock.observe(&at(wandering, moved), false, dt, &settings)
+            })
+        };
+        // Four wander 8 mm (the root mean square 1.6 mm): still.
+        assert_eq!(sleeps_after(4, 0.008), Some(5));
+        // Thirty do: moving.
+        assert_eq!(sleeps_after(30, 0.008), None);
+        // One leaves by more than five times the distance: moving.
+        assert_eq!(sleeps_after(1, 0.011), None);
+        // A NaN is never still.
+        assert_eq!(sleeps_after(1, f32::NAN), None);
     }
 
     #[test]
