@@ -40,6 +40,7 @@ pub(crate) struct FastProjection {
     residual: Vec<f32>,
     direction: Vec<f32>,
     product: Vec<f32>,
+    /// The preconditioner: the diagonal of `J W J^T` (`w_a + w_b`).
     diagonal: Vec<f32>,
     particles: Vec<Vec3A>,
     start: Vec<Vec3A>,
@@ -112,19 +113,25 @@ impl FastProjection {
         self.particles.resize(n, Vec3A::ZERO);
         for _ in 0..newton {
             let mut worst = 0.0f32;
-            for (k, &([a, b], rest)) in self.edges.iter().enumerate() {
+            for (((&([a, b], rest), normal), rhs), diagonal) in self
+                .edges
+                .iter()
+                .zip(self.normals.iter_mut())
+                .zip(self.rhs.iter_mut())
+                .zip(self.diagonal.iter_mut())
+            {
                 let d = x[a as usize] - x[b as usize];
                 let len = d.length();
                 let weight = w[a as usize] + w[b as usize];
                 if len <= f32::EPSILON * rest || weight == 0.0 {
-                    self.normals[k] = Vec3A::ZERO;
-                    self.rhs[k] = 0.0;
-                    self.diagonal[k] = 1.0;
+                    *normal = Vec3A::ZERO;
+                    *rhs = 0.0;
+                    *diagonal = 1.0;
                     continue;
                 }
-                self.normals[k] = d / len;
-                self.rhs[k] = len - rest;
-                self.diagonal[k] = weight;
+                *normal = d / len;
+                *rhs = len - rest;
+                *diagonal = weight;
                 worst = worst.max((len - rest).abs() / rest);
             }
             // A cloth torn about (an edge off by a quarter of its length) is left to the
@@ -136,18 +143,31 @@ impl FastProjection {
             // off.
             self.direction.copy_from_slice(&self.lambda);
             self.apply(w);
-            for k in 0..m {
-                self.residual[k] = self.rhs[k] - self.product[k];
+            let (mut warm, mut cold) = (0.0f32, 0.0f32);
+            for (((residual, &rhs), &product), &diagonal) in self
+                .residual
+                .iter_mut()
+                .zip(&self.rhs)
+                .zip(&self.product)
+                .zip(&self.diagonal)
+            {
+                let r = rhs - product;
+                *residual = r;
+                warm += r * r / diagonal;
+                cold += rhs * rhs / diagonal;
             }
-            let norm = |r: &[f32]| -> f32 { (0..m).map(|k| r[k] * r[k] / self.diagonal[k]).sum() };
-            let (warm, cold) = (norm(&self.residual), norm(&self.rhs));
             // (A non-finite norm compares as not smaller: zero then.)
             if warm.partial_cmp(&cold) != Some(std::cmp::Ordering::Less) {
                 self.lambda.fill(0.0);
                 self.residual.copy_from_slice(&self.rhs);
             }
-            for k in 0..m {
-                self.direction[k] = self.residual[k] / self.diagonal[k];
+            for ((direction, &r), &diagonal) in self
+                .direction
+                .iter_mut()
+                .zip(&self.residual)
+                .zip(&self.diagonal)
+            {
+                *direction = r / diagonal;
             }
             let mut rz = warm.min(cold);
             let start = cold;
@@ -156,35 +176,46 @@ impl FastProjection {
                 if !(rz > start * 1e-12 && rz.is_finite()) {
                     break;
                 }
-                self.apply(w);
-                let pap: f32 = (0..m).map(|k| self.direction[k] * self.product[k]).sum();
+                let pap = self.apply(w);
                 if !(pap > 0.0 && pap.is_finite()) {
                     break;
                 }
                 let alpha = rz / pap;
+                // One pass: the multipliers, the residual, the preconditioned residual (kept
+                // where the product was) and its norm.
                 let mut open = false;
-                for k in 0..m {
-                    self.lambda[k] += alpha * self.direction[k];
-                    self.residual[k] -= alpha * self.product[k];
-                    open |= self.residual[k].abs() > self.tolerance[k];
+                let mut rz_new = 0.0f32;
+                for (((((lambda, residual), product), &direction), &diagonal), &tolerance) in self
+                    .lambda
+                    .iter_mut()
+                    .zip(self.residual.iter_mut())
+                    .zip(self.product.iter_mut())
+                    .zip(&self.direction)
+                    .zip(&self.diagonal)
+                    .zip(&self.tolerance)
+                {
+                    *lambda += alpha * direction;
+                    let r = *residual - alpha * *product;
+                    *residual = r;
+                    open |= r.abs() > tolerance;
+                    *product = r / diagonal;
+                    rz_new += r * r / diagonal;
                 }
                 if !open {
                     break;
                 }
-                let rz_new: f32 = (0..m)
-                    .map(|k| self.residual[k] * self.residual[k] / self.diagonal[k])
-                    .sum();
                 let beta = rz_new / rz;
                 rz = rz_new;
-                for k in 0..m {
-                    self.direction[k] =
-                        self.residual[k] / self.diagonal[k] + beta * self.direction[k];
+                for (direction, &z) in self.direction.iter_mut().zip(&self.product) {
+                    *direction = z + beta * *direction;
                 }
             }
             // dx = -W J^T lambda, halved while it leaves the largest error larger.
             self.particles.fill(Vec3A::ZERO);
-            for (k, &([a, b], _)) in self.edges.iter().enumerate() {
-                let push = self.normals[k] * self.lambda[k];
+            for ((&([a, b], _), &normal), &lambda) in
+                self.edges.iter().zip(&self.normals).zip(&self.lambda)
+            {
+                let push = normal * lambda;
                 self.particles[a as usize] -= push * w[a as usize];
                 self.particles[b as usize] += push * w[b as usize];
             }
@@ -218,21 +249,31 @@ impl FastProjection {
             .fold(0.0, f32::max)
     }
 
-    /// `product = J W J^T direction`.
-    fn apply(&mut self, w: &[f32]) {
+    /// `product = J W J^T direction`; returns `direction . product`.
+    fn apply(&mut self, w: &[f32]) -> f32 {
         self.particles.fill(Vec3A::ZERO);
-        for (k, &([a, b], _)) in self.edges.iter().enumerate() {
-            let t = self.normals[k] * self.direction[k];
+        for ((&([a, b], _), &normal), &direction) in
+            self.edges.iter().zip(&self.normals).zip(&self.direction)
+        {
+            let t = normal * direction;
             self.particles[a as usize] += t;
             self.particles[b as usize] -= t;
         }
         for (p, &w) in self.particles.iter_mut().zip(w) {
             *p *= w;
         }
-        for (k, &([a, b], _)) in self.edges.iter().enumerate() {
-            self.product[k] =
-                self.normals[k].dot(self.particles[a as usize] - self.particles[b as usize]);
+        let mut dot = 0.0f32;
+        for (((&([a, b], _), &normal), product), &direction) in self
+            .edges
+            .iter()
+            .zip(&self.normals)
+            .zip(self.product.iter_mut())
+            .zip(&self.direction)
+        {
+            *product = normal.dot(self.particles[a as usize] - self.particles[b as usize]);
+            dot += direction * *product;
         }
+        dot
     }
 }
 

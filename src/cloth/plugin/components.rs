@@ -139,9 +139,10 @@ pub struct ClothSettings {
     ///
     /// [`AirSettings`]: crate::cloth::AirSettings
     pub wind: bool,
-    /// When the cloth sleeps: still for a while (no particle farther than
-    /// [`SleepSettings::distance`] from where it was [`SleepSettings::seconds`] ago) with
-    /// nothing about it moving,
+    /// When the cloth sleeps: still for a while (its free particles within
+    /// [`SleepSettings::distance`] of where they were [`SleepSettings::seconds`] ago, as a root
+    /// mean square, none farther than [`SleepSettings::TREMBLE`] times it) with nothing about
+    /// it moving,
     /// it stops being solved and gets a [`ClothSleeping`] marker; it wakes in the fixed step
     /// its followed entity, a pin or attachment target, a collider near it, the wind, a drag
     /// ([`ClothSimulation::solver_mut`]), these settings or the gravity change. `None`: it never

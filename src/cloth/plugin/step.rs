@@ -457,19 +457,17 @@ fn step_cloth<C: ClothCoupling>(
             response: settings.on_divergence,
         });
     }
-    if let (Some(sleep), Some(disturbance)) = (sleep, disturbance) {
-        let positions = &sim.state().positions;
-        if simulation
+    if let (Some(sleep), Some(disturbance)) = (sleep, disturbance)
+        && simulation
             .sleep
-            .observe(positions, disturbance.is_some(), dt, &sleep)
-        {
-            sim.fall_asleep();
-            simulation.slept_with = Some(Slept {
-                settings: *settings,
-                gravity: context.drape.gravity,
-                followed: frame.map(|f| f.end),
-            });
-        }
+            .observe(sim.state(), disturbance.is_some(), dt, &sleep)
+    {
+        sim.fall_asleep();
+        simulation.slept_with = Some(Slept {
+            settings: *settings,
+            gravity: context.drape.gravity,
+            followed: frame.map(|f| f.end),
+        });
     }
     None
 }

@@ -38,6 +38,10 @@ impl ClothSolver {
                 }
             }
         }
+        // The step far from the origin keeps their poses here (`origin.rs`): made now, so
+        // that the step allocates nothing.
+        self.unmoved_colliders.clear();
+        self.unmoved_colliders.reserve(self.colliders.len());
         if self.colliders.len() != count || first_error.is_some() {
             // The contacts name colliders by index.
             self.contacts.forget();

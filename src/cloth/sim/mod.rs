@@ -166,6 +166,9 @@ pub struct ClothSolver {
     adaptive_contacts_backup: ContactScratch,
     /// The exact edges' warm start before an adaptive step, to undo it with the state.
     adaptive_projection_backup: Vec<f32>,
+    /// The colliders' start and end translations before the step moved them near the origin
+    /// (`origin.rs`), put back as they were.
+    unmoved_colliders: Vec<[Vec3A; 2]>,
     /// Buffers of the order-free edge projection (closed cloth).
     jacobi: JacobiScratch,
     /// The wind at each particle, from the last [`ClothSolver::set_wind`].
@@ -279,6 +282,7 @@ impl ClothSolver {
             adaptive_backup: ClothState::default(),
             adaptive_contacts_backup: ContactScratch::default(),
             adaptive_projection_backup: Vec::new(),
+            unmoved_colliders: Vec::new(),
             jacobi: JacobiScratch::default(),
             particle_wind: vec![Vec3A::ZERO; n],
             air_acceleration: vec![Vec3A::ZERO; n],
@@ -510,7 +514,7 @@ impl ClothSolver {
             None => self.step_origin(),
             Some(_) => Vec3A::ZERO,
         };
-        self.move_origin_to(origin);
+        self.move_to_origin(origin);
         match settings
             .adaptive
             .filter(|_| settings.method != SolverMethod::MassSpring && coupling.is_none())
@@ -518,7 +522,7 @@ impl ClothSolver {
             Some(budget) => self.step_adaptive(settings, &budget, acceleration, dt, join),
             None => self.step_substeps(settings, acceleration, dt, join, coupling),
         }
-        self.move_origin_to(-origin);
+        self.move_back_from(origin);
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start = pin.end;
         }

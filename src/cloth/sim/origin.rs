@@ -38,21 +38,43 @@ impl ClothSolver {
             .map_or(Vec3A::ZERO, |&p| local_origin(p))
     }
 
-    /// Moves every point the step reads or writes by `-offset`: the particles, the pins and
+    /// Moves every point the step reads or writes by `-origin`: the particles, the pins and
     /// the dragged particle, the colliders' poses and the contacts' held points. Velocities,
     /// normals and the model's rest shape do not depend on where the origin is.
-    pub(super) fn move_origin_to(&mut self, offset: Vec3A) {
-        if offset == Vec3A::ZERO {
+    pub(super) fn move_to_origin(&mut self, origin: Vec3A) {
+        if origin == Vec3A::ZERO {
             return;
         }
+        self.move_points(origin);
+        self.unmoved_colliders.clear();
+        for c in &mut self.colliders {
+            self.unmoved_colliders
+                .push([c.start.translation, c.end.translation]);
+            c.start.translation -= origin;
+            c.end.translation -= origin;
+        }
+    }
+
+    /// Undoes [`Self::move_to_origin`]: the points the step wrote moved back by `origin`, the
+    /// colliders put back exactly as they were (one far from the cloth, a plane's point say,
+    /// would come back rounded).
+    pub(super) fn move_back_from(&mut self, origin: Vec3A) {
+        if origin == Vec3A::ZERO {
+            return;
+        }
+        self.move_points(-origin);
+        for (c, &[start, end]) in self.colliders.iter_mut().zip(&self.unmoved_colliders) {
+            c.start.translation = start;
+            c.end.translation = end;
+        }
+    }
+
+    /// The particles, pins and held contact points moved by `-offset`.
+    fn move_points(&mut self, offset: Vec3A) {
         self.state.map_points(|p| p - offset);
         for pin in self.pins.iter_mut().chain(self.drag.as_mut()) {
             pin.start -= offset;
             pin.end -= offset;
-        }
-        for c in &mut self.colliders {
-            c.start.translation -= offset;
-            c.end.translation -= offset;
         }
         self.contacts.carry_anchors(|p| p - offset);
     }

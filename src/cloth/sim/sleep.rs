@@ -7,6 +7,7 @@ use bevy::math::Vec3A;
 use bevy::reflect::Reflect;
 
 use super::ClothSolver;
+use crate::cloth::state::ClothState;
 use crate::collide::trimesh::Aabb;
 use crate::collide::{FrameStep, SolverCollider};
 use crate::error::ClothError;
@@ -17,7 +18,10 @@ use crate::error::ClothError;
 /// are, not their velocities, is what counts, and the cloth as a whole rather than its
 /// liveliest particle: a cloth at rest on a body keeps a few particles trembling by a fraction
 /// of a millimetre a step, and wandering by a few millimetres a second where it is pressed
-/// between colliders, which is not motion anyone sees. A sleeping cloth keeps its pose, at
+/// between colliders, which is not motion anyone sees. The price: a large cloth whose small
+/// part still sways by less than `TREMBLE * distance` (1 cm at the defaults) in `seconds`
+/// sleeps with it, where a small cloth swaying as much stays awake; lower `distance` for
+/// such a cloth. A sleeping cloth keeps its pose, at
 /// rest, and costs nothing to step; it wakes in the step anything that could move it moves
 /// (see `ClothSleeping` in the plugin).
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
@@ -84,11 +88,13 @@ impl SleepClock {
         self.reference.clear();
     }
 
-    /// After a step of `dt` seconds that left the particles at `positions` (`disturbed`:
-    /// something about the cloth moved): whether the cloth falls asleep now.
+    /// After a step of `dt` seconds that left the cloth in `state` (`disturbed`: something
+    /// about the cloth moved): whether the cloth falls asleep now. The pinned particles
+    /// (inverse mass 0) do not count in the mean: they would make a mostly pinned cloth look
+    /// still.
     pub(crate) fn observe(
         &mut self,
-        positions: &[Vec3A],
+        state: &ClothState,
         disturbed: bool,
         dt: f32,
         settings: &SleepSettings,
@@ -96,18 +102,26 @@ impl SleepClock {
         if self.asleep {
             return false;
         }
+        let positions = &state.positions;
         let limit = settings.distance * settings.distance;
         let cap = limit * SleepSettings::TREMBLE * SleepSettings::TREMBLE;
         let still = !disturbed && self.reference.len() == positions.len() && {
-            let mut sum = 0.0f32;
+            let (mut sum, mut free) = (0.0f32, 0u32);
             let mut within_cap = true;
-            for (p, r) in positions.iter().zip(&self.reference) {
+            for ((p, r), &w) in positions
+                .iter()
+                .zip(&self.reference)
+                .zip(&state.inverse_masses)
+            {
                 let d2 = p.distance_squared(*r);
-                sum += d2;
+                if w > 0.0 {
+                    sum += d2;
+                    free += 1;
+                }
                 within_cap &= d2 <= cap;
             }
             // (NaN compares false: a cloth with a NaN in it is never still.)
-            within_cap && sum <= limit * positions.len() as f32
+            within_cap && sum <= limit * free as f32
         };
         if still {
             self.still_for += dt;
@@ -257,7 +271,7 @@ mod tests {
         };
         let mut clock = SleepClock::default();
         let dt = 0.1;
-        let at = |x: f32| [Vec3A::new(x, 0.0, 0.0), Vec3A::ONE];
+        let at = |x: f32| state(vec![Vec3A::new(x, 0.0, 0.0), Vec3A::ONE]);
         // Trembling by less than the distance counts as still; moving past it, or a
         // disturbance, starts the count again.
         assert!(!clock.observe(&at(0.0), false, dt, &settings));
@@ -288,9 +302,11 @@ mod tests {
         let dt = 0.1;
         // 100 particles, `wandering` of them moved by `by` from the start.
         let at = |wandering: usize, by: f32| {
-            (0..100)
-                .map(|i| Vec3A::new(i as f32, if i < wandering { by } else { 0.0 }, 0.0))
-                .collect::<Vec<_>>()
+            state(
+                (0..100)
+                    .map(|i| Vec3A::new(i as f32, if i < wandering { by } else { 0.0 }, 0.0))
+                    .collect(),
+            )
         };
         let sleeps_after = |wandering: usize, by: f32| {
             let mut clock = SleepClock::default();
@@ -307,6 +323,30 @@ mod tests {
         assert_eq!(sleeps_after(1, 0.011), None);
         // A NaN is never still.
         assert_eq!(sleeps_after(1, f32::NAN), None);
+        // Pinned particles do not count in the mean: two of four free particles wandering
+        // 2.5 mm (the root mean square 1.8 mm) are still, 4 mm (2.8 mm) are not, however many
+        // pinned particles lie still beside them (96 here).
+        let pinned_sleeps_after = |by: f32| {
+            let mut clock = SleepClock::default();
+            (0..20).position(|k| {
+                let mut s = at(2, if k % 2 == 1 { by } else { 0.0 });
+                s.inverse_masses[4..].fill(0.0);
+                clock.observe(&s, false, dt, &settings)
+            })
+        };
+        assert_eq!(pinned_sleeps_after(0.0025), Some(5));
+        let fell = pinned_sleeps_after(0.004);
+        assert_eq!(fell, None, "two of four free particles moving 4 mm");
+    }
+
+    /// A state of particles at `positions`, every one free (inverse mass 1).
+    fn state(positions: Vec<Vec3A>) -> ClothState {
+        ClothState {
+            previous_positions: positions.clone(),
+            velocities: vec![Vec3A::ZERO; positions.len()],
+            inverse_masses: vec![1.0; positions.len()],
+            positions,
+        }
     }
 
     #[test]
