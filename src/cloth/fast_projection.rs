@@ -6,8 +6,9 @@
 //! solves `(J W J^T) lambda = C` (`J` the constraints' gradient, `W` the inverse masses) and
 //! moves `dx = -W J^T lambda`: the smallest mass-weighted move that meets the linearised
 //! constraints, so tension travels the whole cloth in one solve instead of one edge per
-//! Gauss-Seidel sweep. The product with `J W J^T` is formed edge by edge (no matrix is
-//! stored); edges whose particles are both fixed are left out.
+//! Gauss-Seidel sweep. The product with `J W J^T` is formed without a matrix: `J^T` gathered
+//! particle by particle over each particle's edges, then `J` edge by edge; edges whose
+//! particles are both fixed are left out.
 //!
 //! Each solve starts from the multipliers of the last one (warm start: a cloth resting on a
 //! body meets much the same tension every substep) unless they leave a larger residual than
@@ -46,6 +47,12 @@ pub(crate) struct FastProjection {
     start: Vec<Vec3A>,
     /// `TOLERANCE L_e`: the residual each edge may keep.
     tolerance: Vec<f32>,
+    /// `J^T` by rows: each particle's edges (`incident[incident_start[p]..incident_start[p +
+    /// 1]]`) in the order of `edges`, with the sign of their direction at it (`+1` at `a`,
+    /// `-1` at `b`), so that `J^T lambda` is a sum per particle taken in the order the edges
+    /// come (the same sum, bit for bit, as adding edge by edge into every particle).
+    incident_start: Vec<u32>,
+    incident: Vec<(u32, f32)>,
 }
 
 impl FastProjection {
@@ -55,6 +62,28 @@ impl FastProjection {
         let edges: Vec<_> = edges.map(|e| (e.particles, e.rest_length)).collect();
         let tolerance = edges.iter().map(|&(_, rest)| TOLERANCE * rest).collect();
         let m = edges.len();
+        let mut counts = vec![0u32; particles + 1];
+        for &([a, b], _) in &edges {
+            for p in [a, b] {
+                if let Some(count) = counts.get_mut(p as usize + 1) {
+                    *count += 1;
+                }
+            }
+        }
+        for p in 0..particles {
+            counts[p + 1] += counts[p];
+        }
+        let incident_start = counts;
+        let mut incident = vec![(0u32, 0.0f32); incident_start[particles] as usize];
+        let mut next: Vec<u32> = incident_start[..particles].to_vec();
+        for (k, &([a, b], _)) in edges.iter().enumerate() {
+            for (p, sign) in [(a, 1.0), (b, -1.0)] {
+                if let Some(slot) = next.get_mut(p as usize) {
+                    incident[*slot as usize] = (k as u32, sign);
+                    *slot += 1;
+                }
+            }
+        }
         Self {
             edges,
             normals: vec![Vec3A::ZERO; m],
@@ -67,6 +96,8 @@ impl FastProjection {
             particles: vec![Vec3A::ZERO; particles],
             start: Vec::with_capacity(particles),
             tolerance,
+            incident_start,
+            incident,
         }
     }
 
@@ -211,14 +242,21 @@ impl FastProjection {
                 }
             }
             // dx = -W J^T lambda, halved while it leaves the largest error larger.
-            self.particles.fill(Vec3A::ZERO);
-            for ((&([a, b], _), &normal), &lambda) in
-                self.edges.iter().zip(&self.normals).zip(&self.lambda)
-            {
-                let push = normal * lambda;
-                self.particles[a as usize] -= push * w[a as usize];
-                self.particles[b as usize] += push * w[b as usize];
-            }
+            let (normals, lambda) = (&self.normals, &self.lambda);
+            per_particle(
+                &self.incident_start,
+                &self.incident,
+                w,
+                &mut self.particles,
+                |edges, w| {
+                    let mut sum = Vec3A::ZERO;
+                    for &(k, sign) in edges {
+                        let push = normals[k as usize] * lambda[k as usize];
+                        sum += push * w * -sign;
+                    }
+                    sum
+                },
+            );
             self.start.clear();
             self.start.extend_from_slice(x);
             let mut scale = 1.0;
@@ -251,17 +289,20 @@ impl FastProjection {
 
     /// `product = J W J^T direction`; returns `direction . product`.
     fn apply(&mut self, w: &[f32]) -> f32 {
-        self.particles.fill(Vec3A::ZERO);
-        for ((&([a, b], _), &normal), &direction) in
-            self.edges.iter().zip(&self.normals).zip(&self.direction)
-        {
-            let t = normal * direction;
-            self.particles[a as usize] += t;
-            self.particles[b as usize] -= t;
-        }
-        for (p, &w) in self.particles.iter_mut().zip(w) {
-            *p *= w;
-        }
+        let (normals, direction) = (&self.normals, &self.direction);
+        per_particle(
+            &self.incident_start,
+            &self.incident,
+            w,
+            &mut self.particles,
+            |edges, w| {
+                let mut sum = Vec3A::ZERO;
+                for &(k, sign) in edges {
+                    sum += normals[k as usize] * direction[k as usize] * sign;
+                }
+                sum * w
+            },
+        );
         let mut dot = 0.0f32;
         for (((&([a, b], _), &normal), product), &direction) in self
             .edges
@@ -274,6 +315,20 @@ impl FastProjection {
             dot += direction * *product;
         }
         dot
+    }
+}
+
+/// `out[p] = at(edges of p, w[p])` for every particle, its edges read off the incidence list
+/// (`FastProjection::incident`).
+fn per_particle(
+    start: &[u32],
+    incident: &[(u32, f32)],
+    w: &[f32],
+    out: &mut [Vec3A],
+    at: impl Fn(&[(u32, f32)], f32) -> Vec3A,
+) {
+    for ((p, ends), &w) in out.iter_mut().zip(start.windows(2)).zip(w) {
+        *p = at(&incident[ends[0] as usize..ends[1] as usize], w);
     }
 }
 
