@@ -34,7 +34,7 @@
 //! (the median over the runs of each run's median) and per character, their ratio, how many
 //! ponchos were asleep at the end (`slept`), and whether every run gave the same figures bit
 //! for bit. `--warmup S` runs S seconds before the `--frames` that are timed (standing
-//! characters' ponchos take 15-20 s to come to rest after the drop and fall asleep). `--lod`
+//! characters' ponchos take 10-14 s to come to rest after the drop and fall asleep). `--lod`
 //! measures from a viewer 4 m before the first character (`ClothLevelOfDetail`): 4 substeps
 //! beyond 12 m, frozen beyond 30 m.
 //!
@@ -48,6 +48,12 @@
 //! substep in which the cloth touches a collider with one Gauss-Newton step of at most `CG`
 //! conjugate-gradient iterations (`SolverSettings::exact_edges`; on by default, with 20, in
 //! every scene but S2); `--no-exact-edges` leaves them to the iterations.
+//!
+//! `drop` is the self-collision example's sheet dropped onto the ground so that it folds onto
+//! itself (`SheetDrop`, self-collision off unless `--self-collision`): besides the cost and
+//! strain, the closest gap between two particles that share no edge at the end, in grid
+//! spacings (`closest_gap`), and how many times a particle went through one of the sheet's
+//! triangles between two frames over the run (`crossings`, `bevy_drape::cloth::count_self_crossings`).
 //!
 //! `pour` is the `water` example's scene (`drape_scenes::water::Pour`): a jet of 600
 //! particles poured into a sheet hung from four posts, cloth and water stepped together
@@ -359,13 +365,14 @@ fn run() -> Result<(), String> {
             let (run, all_frames) =
                 repeat(runs, || scene.run(&settings, frames), |r| &r.frame_seconds);
             println!(
-                "{{\"scene\":\"drop\",\"n\":{n},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"max_strain\":{:.6},\"finite\":{}}}",
+                "{{\"scene\":\"drop\",\"n\":{n},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"crossings\":{},\"max_strain\":{:.6},\"finite\":{}}}",
                 settings.self_collision,
                 settings.substeps,
                 settings.iterations,
                 median(&all_frames) * 1e3,
                 run.closest_gap,
                 run.sim.self_contact_count(),
+                run.crossings,
                 run.max_strain,
                 run.finite
             );

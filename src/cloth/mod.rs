@@ -7,6 +7,7 @@ pub(crate) mod air;
 pub(crate) mod batch;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod constraints;
+pub(crate) mod crossings;
 pub(crate) mod damping;
 pub(crate) mod debug_colors;
 pub(crate) mod embedding;
@@ -37,6 +38,7 @@ pub mod wind_plugin;
 
 pub use crate::weld::{Welded, weld};
 pub use air::{AirSettings, Falloff, Gusts, WindField, WindShape, WindSourceDesc};
+pub use crossings::{CROSSING_REACH, TwoPoses, count_crossings_between, count_self_crossings};
 pub use damping::RigidMotion;
 pub use debug_colors::{ClothPaint, DebugColorMode, PaintSource, PaintTarget};
 pub use embedding::{EmbeddedVertex, Embedding};

@@ -221,7 +221,12 @@ impl MeshVertexContacts {
 /// triangle's unit normal and `q`'s height above the plane along it; `None` for a degenerate
 /// triangle.
 #[inline]
-fn plane_coordinates(q: Vec3A, a: Vec3A, b: Vec3A, c: Vec3A) -> Option<(Vec3A, Vec3A, f32)> {
+pub(crate) fn plane_coordinates(
+    q: Vec3A,
+    a: Vec3A,
+    b: Vec3A,
+    c: Vec3A,
+) -> Option<(Vec3A, Vec3A, f32)> {
     let ab = b - a;
     let ac = c - a;
     let cross = ab.cross(ac);

@@ -4,7 +4,9 @@ use std::time::Instant;
 
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::internals::SelfCollision;
-use bevy_drape::cloth::{ClothModel, ClothSolver, GridDesc, SolverSettings};
+use bevy_drape::cloth::{
+    ClothModel, ClothSolver, GridDesc, SolverSettings, TwoPoses, count_self_crossings,
+};
 use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 
 use super::common::{DENSITY, FRAME_RATE, GRAVITY};
@@ -73,18 +75,32 @@ impl SheetDrop {
         let dt = 1.0 / FRAME_RATE;
         let mut frame_seconds = Vec::with_capacity(frames as usize);
         let mut finite = true;
+        let mut crossings = 0;
+        let mut before = sim.state().positions.clone();
         for _ in 0..frames {
             let start = Instant::now();
             sim.step(settings, GRAVITY, dt)
                 .expect("the scene runs with valid settings");
             frame_seconds.push(start.elapsed().as_secs_f64());
             finite &= sim.is_finite();
+            // Counted outside the timed step.
+            let after = &sim.state().positions;
+            crossings += count_self_crossings(
+                TwoPoses {
+                    before: &before,
+                    after,
+                },
+                &sim.model().triangles,
+                settings.thickness,
+            );
+            before.clone_from(after);
         }
         let spacing = 1.0 / (self.n - 1) as f32;
         SheetDropRun {
             frame_seconds,
             closest_gap: closest_non_adjacent(&sim, spacing).unwrap_or(f32::INFINITY) / spacing,
             max_strain: sim.strain().max,
+            crossings,
             finite,
             sim,
         }
@@ -101,6 +117,9 @@ pub struct SheetDropRun {
     pub closest_gap: f32,
     /// Largest structural strain at the end.
     pub max_strain: f32,
+    /// How many times a particle went through one of the sheet's triangles between two
+    /// frames ([`count_self_crossings`]), over the run.
+    pub crossings: usize,
     /// Whether every position stayed finite.
     pub finite: bool,
     /// The cloth at the end.
