@@ -21,7 +21,8 @@
 //! (`PonchoDesc`) instead of the shipped OBJ. The poncho is simulated on the coarse pattern
 //! (`meshes/poncho_coarse.obj`, `ClothSimulationMesh`) and drawn with the fine one;
 //! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
-//! `--simulate-drawn` (or `--n` alone) simulates what it draws.
+//! `--simulate-drawn` (or `--n` alone) simulates what it draws. Its line counts `crossings`:
+//! how many times a particle went through one of its poncho's triangles between two steps.
 //!
 //! `s1 --threads N` runs S1 a second time with every step split over its thread and a helper
 //! task (`ClothSolver::step_with`, `with_helper`) and adds that run's ms per frame, its ratio

@@ -71,6 +71,11 @@ pub struct PonchoRun {
     pub asleep: usize,
     /// Fixed steps run.
     pub steps: u32,
+    /// How many times a particle went through one of its own poncho's triangles between two
+    /// steps ([`bevy_drape::cloth::count_self_crossings`]), every poncho over the whole run.
+    pub crossings: usize,
+    /// Each poncho's positions after the last step, for the crossings.
+    previous_positions: Vec<(Entity, Vec<bevy::math::Vec3A>)>,
 }
 
 /// The `s3` line of the `scenes` runner (field order is the line's).
@@ -98,6 +103,7 @@ struct S3Line {
     self_collision_share: f64,
     ms_write_back: f64,
     deepest_penetration: f32,
+    crossings: usize,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
     worst_step: usize,
@@ -153,6 +159,7 @@ impl PonchoRun {
                 / self.median_part_ms(|p| p.total()),
             ms_write_back: crate::scenes::median(&self.write_back_ms),
             deepest_penetration: self.deepest_penetration,
+            crossings: self.crossings,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
             worst_step: self.worst_step(),
@@ -416,6 +423,37 @@ fn character_position(app: &mut App) -> Option<Vec3> {
         .map(|t| t.translation)
 }
 
+/// Adds to [`PonchoRun::crossings`] those of `poncho` (simulated by `sim`) since the last step.
+fn count_crossings(
+    run: &mut PonchoRun,
+    poncho: Entity,
+    sim: &bevy_drape::cloth::ClothSolver,
+    thickness: f32,
+) {
+    use bevy_drape::cloth::{TwoPoses, count_self_crossings};
+    let x = &sim.state().positions;
+    let k = match run
+        .previous_positions
+        .iter()
+        .position(|(e, _)| *e == poncho)
+    {
+        Some(k) => k,
+        None => {
+            run.previous_positions.push((poncho, x.clone()));
+            return;
+        }
+    };
+    let before = &mut run.previous_positions[k].1;
+    if before.len() == x.len() {
+        run.crossings += count_self_crossings(
+            TwoPoses { before, after: x },
+            &sim.model().triangles,
+            thickness,
+        );
+    }
+    before.clone_from(x);
+}
+
 fn measure(app: &mut App, run: &mut PonchoRun) {
     use bevy_drape::collide::SolverShape;
     let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
@@ -448,6 +486,9 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
             (poncho, chest)
         })
         .collect();
+    let thickness = world
+        .get_resource::<PonchoScene>()
+        .map_or(0.0, |scene| scene.solver.thickness);
     let mut ponchos =
         world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
     run.asleep = ponchos.iter(world).filter(|s| s.is_asleep()).count();
@@ -458,6 +499,7 @@ fn measure(app: &mut App, run: &mut PonchoRun) {
         let sim = simulation.solver();
         let x = &sim.state().positions;
         run.particles = x.len();
+        count_crossings(run, poncho, sim, thickness);
         run.finite &= sim.is_finite();
         run.frozen |= simulation.is_frozen();
 
