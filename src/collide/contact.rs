@@ -64,7 +64,8 @@
 
 use bevy::math::Vec3A;
 
-use super::shapes::{RigidPose, SolverCollider};
+use super::pose::RigidPose;
+use super::shapes::SolverCollider;
 use super::trimesh::Aabb;
 
 /// No collider.

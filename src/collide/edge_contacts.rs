@@ -39,7 +39,8 @@
 use bevy::math::Vec3A;
 
 use super::contact::ContactScratch;
-use super::shapes::{RigidPose, SolverCollider, SolverShape};
+use super::pose::RigidPose;
+use super::shapes::{SolverCollider, SolverShape};
 use super::trimesh::Aabb;
 
 /// The share of the cloth's longest edge a collider's radius must stay below to take part.

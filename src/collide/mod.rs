@@ -13,11 +13,13 @@ pub(crate) mod contact;
 pub(crate) mod edge_contacts;
 pub mod motion;
 pub mod plugin;
+pub(crate) mod pose;
 pub(crate) mod shapes;
 pub(crate) mod skin;
 pub(crate) mod trimesh;
 pub(crate) mod vertex_contacts;
 
 pub use motion::{FrameStep, FrameTracker, Teleport};
-pub use shapes::{ContactMaterial, MAX_COORDINATE, RigidPose, SolverCollider, SolverShape};
+pub use pose::RigidPose;
+pub use shapes::{ContactMaterial, MAX_COORDINATE, SolverCollider, SolverShape};
 pub use trimesh::TriMesh;

@@ -22,7 +22,7 @@
 use bevy::math::{Quat, Vec3A};
 use bevy::reflect::Reflect;
 
-use super::shapes::RigidPose;
+use super::pose::RigidPose;
 
 /// When a frame's pose change over one fixed step counts as a jump (a teleport, a respawn)
 /// rather than motion.

@@ -12,7 +12,8 @@
 use bevy::math::Vec3A;
 
 use super::motion::FrameStep;
-use super::shapes::{RigidPose, SolverCollider};
+use super::pose::RigidPose;
+use super::shapes::SolverCollider;
 use super::trimesh::Aabb;
 
 /// How far beyond its particles a drawn cloth's points may lie (a render mesh's offsets from

@@ -8,8 +8,8 @@ use bevy::transform::helper::TransformHelper;
 
 use super::components::{ClothLevelOfDetail, ClothSettings, ClothSimulation, ClothSleeping};
 use crate::cloth::lod::{LodLevel, validate_levels};
-use crate::cloth::sim::{CREEP, ClothSolver, SleepSettings, colliders_move_near, frame_moves};
-use crate::collide::{FrameStep, RigidPose, SolverCollider};
+use crate::cloth::sim::{ClothSolver, SleepSettings, colliders_move_near, frame_moves};
+use crate::collide::{FrameStep, SolverCollider};
 
 /// Gives every sleeping cloth a [`ClothSleeping`] marker and takes it from every awake one;
 /// hides every cloth its level of detail hides and shows it again as it was when it comes
@@ -140,38 +140,6 @@ pub(super) fn sleep_settings(
             }
             Some(SleepSettings::default())
         }
-    }
-}
-
-/// What a cloth fell asleep with: its settings, the gravity and where its followed entity was.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Slept {
-    pub(super) settings: ClothSettings,
-    pub(super) gravity: Vec3,
-    pub(super) followed: Option<RigidPose>,
-}
-
-impl Slept {
-    /// Whether the settings and the gravity are those the cloth fell asleep with (a field
-    /// that is not a number counts as unchanged, so NaN settings do not wake it every step)
-    /// and its followed entity has not crept away from where it was (by [`CREEP`]).
-    pub(super) fn still(
-        &self,
-        settings: &ClothSettings,
-        gravity: Vec3,
-        frame: Option<&FrameStep>,
-    ) -> bool {
-        let same_settings =
-            self.settings == *settings || format!("{:?}", self.settings) == format!("{settings:?}");
-        let in_place = match (self.followed, frame) {
-            (None, None) => true,
-            (Some(then), Some(now)) => {
-                then.translation.distance(now.end.translation) <= CREEP
-                    && then.rotation.angle_between(now.end.rotation) <= CREEP
-            }
-            _ => false,
-        };
-        same_settings && self.gravity == gravity && in_place
     }
 }
 

@@ -9,7 +9,7 @@ use crate::cloth::lod::LodLevel;
 use crate::cloth::render_mesh::EmbeddedRender;
 use crate::cloth::settings::{DivergenceBounds, SolverMethod, SolverSettings};
 use crate::cloth::sim::diagnostics::Divergence;
-use crate::cloth::sim::{ClothSolver, SleepClock, SleepSettings};
+use crate::cloth::sim::{CREEP, ClothSolver, SleepClock, SleepSettings};
 use crate::collide::skin::DrawnColliders;
 use crate::collide::{FrameStep, FrameTracker, RigidPose, SolverCollider};
 use crate::error::ClothError;
@@ -303,7 +303,7 @@ pub struct ClothSimulation {
     /// How long the cloth has been still, and whether it sleeps ([`ClothSettings::sleep`]).
     pub(super) sleep: SleepClock,
     /// The settings and the gravity the cloth fell asleep with.
-    pub(super) slept_with: Option<super::budget::Slept>,
+    pub(super) slept_with: Option<Slept>,
     pub(super) warned_sleep: bool,
     /// What the mesh was last drawn from while the cloth sleeps (the cloth's and the followed
     /// entity's drawn poses): the same again is not redrawn.
@@ -406,3 +406,35 @@ impl FileValue for ClothSettings {
 /// On a cloth: its [`ClothSettings`] from a `.cloth.ron` file
 /// (`ClothSettingsFile::new(server.load("settings/x.cloth.ron"))`).
 pub type ClothSettingsFile = FromFile<ClothSettings>;
+
+/// What a cloth fell asleep with: its settings, the gravity and where its followed entity was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Slept {
+    pub(crate) settings: ClothSettings,
+    pub(crate) gravity: Vec3,
+    pub(crate) followed: Option<RigidPose>,
+}
+
+impl Slept {
+    /// Whether the settings and the gravity are those the cloth fell asleep with (a field
+    /// that is not a number counts as unchanged, so NaN settings do not wake it every step)
+    /// and its followed entity has not crept away from where it was (by [`CREEP`]).
+    pub(crate) fn still(
+        &self,
+        settings: &ClothSettings,
+        gravity: Vec3,
+        frame: Option<&FrameStep>,
+    ) -> bool {
+        let same_settings =
+            self.settings == *settings || format!("{:?}", self.settings) == format!("{settings:?}");
+        let in_place = match (self.followed, frame) {
+            (None, None) => true,
+            (Some(then), Some(now)) => {
+                then.translation.distance(now.end.translation) <= CREEP
+                    && then.rotation.angle_between(now.end.rotation) <= CREEP
+            }
+            _ => false,
+        };
+        same_settings && self.gravity == gravity && in_place
+    }
+}

@@ -6,10 +6,10 @@ use bevy::math::Vec3A;
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
-use super::budget::{LodWarnings, Slept, disturbance, lod_viewer, sleep_settings};
+use super::budget::{LodWarnings, disturbance, lod_viewer, sleep_settings};
 use super::components::{
     Cloth, ClothDiverged, ClothLevelOfDetail, ClothSettings, ClothSimulation, DefaultClothSettings,
-    OnDivergence,
+    OnDivergence, Slept,
 };
 use crate::cloth::air::{AirSettings, WindField};
 use crate::cloth::lod::{LodBudget, LodLevel, level_at};

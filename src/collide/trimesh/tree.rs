@@ -2,7 +2,7 @@
 
 use bevy::math::Vec3A;
 
-use crate::collide::shapes::RigidPose;
+use crate::collide::pose::RigidPose;
 
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
