@@ -14,7 +14,7 @@
 //! adapter it says so, runs the scene headless and prints its figures.
 //!
 //! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W the wave, B a gusting
-//! breeze, S self-collision, R resets the poncho, P pauses, C cycles the debug colours; drag the
+//! breeze, S cycles the self-collision method, R resets the poncho, P pauses, C cycles the debug colours; drag the
 //! poncho with the left mouse button, orbit with the right one, scroll to zoom.
 
 mod common;
@@ -158,7 +158,7 @@ fn spawn_character_and_poncho(
             density: 0.25,
             // The scene S3 measures (`scenes -- s3`), in air: B turns a breeze on.
             solver: SolverSettings {
-                self_collision: true,
+                self_collision: SelfCollisionMethod::Particles,
                 shear_compliance: 0.1,
                 air: Some(AirSettings::default()),
                 ..default()
@@ -242,7 +242,12 @@ fn keys(
             simulation.reset();
         }
         if input.just_pressed(KeyCode::KeyS) {
-            settings.solver.self_collision = !settings.solver.self_collision;
+            // The next method: off, particles, triangles.
+            let methods = SelfCollisionMethod::ALL;
+            let at = methods
+                .iter()
+                .position(|&m| m == settings.solver.self_collision);
+            settings.solver.self_collision = methods[at.map_or(0, |i| (i + 1) % methods.len())];
         }
     }
 }
@@ -270,11 +275,7 @@ fn label(
             sim.state().len(),
             settings.solver.substeps,
             settings.solver.iterations,
-            if settings.solver.self_collision {
-                "on"
-            } else {
-                "off"
-            },
+            settings.solver.self_collision.name(),
             if waving { "on" } else { "off" },
             ms(timings.total()),
             ms(timings.animation),

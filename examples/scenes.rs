@@ -51,7 +51,8 @@
 //! every scene but S2); `--no-exact-edges` leaves them to the iterations.
 //!
 //! `drop` is the self-collision example's sheet dropped onto the ground so that it folds onto
-//! itself (`SheetDrop`, self-collision off unless `--self-collision`): besides the cost and
+//! itself (`SheetDrop`, self-collision off unless `--self-collision particles|triangles`;
+//! `--seed S` drops it from a tilt, height and turn generated from `S`, `SheetDrop::generated`): besides the cost and
 //! strain, the closest gap between two particles that share no edge at the end, in grid
 //! spacings (`closest_gap`), and how many times a particle went through one of the sheet's
 //! triangles between two frames over the run (`crossings`, `bevy_drape::cloth::count_self_crossings`).
@@ -84,8 +85,8 @@ use bevy::math::Vec3;
 use bevy::transform::components::Transform;
 use bevy_drape::cloth::plugin::{ClothLevelOfDetail, ClothSettings};
 use bevy_drape::cloth::{
-    AdaptiveSubsteps, ExactEdges, Gusts, LodBudget, LodLevel, PonchoDesc, SolverMethod,
-    SolverSettings,
+    AdaptiveSubsteps, ExactEdges, Gusts, LodBudget, LodLevel, PonchoDesc, SelfCollisionMethod,
+    SolverMethod, SolverSettings,
 };
 use bevy_drape::schedule::DrapeSettings;
 use drape_scenes::poncho::{
@@ -108,10 +109,11 @@ fn run() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
     let scene = args.next().ok_or("missing scene name (s1, s2, s3, drop)")?;
     let mut n = 32u32;
+    let mut seed: Option<u64> = None;
     let mut runs = 3u32;
     let mut frames: Option<u32> = None;
     let mut settings = match scene.as_str() {
-        "drop" => SheetDrop::settings(false),
+        "drop" => SheetDrop::settings(SelfCollisionMethod::Off),
         "s3" | "crowd" => PonchoScene::default().solver,
         "wind" => Flag::settings(),
         "collisions" => Collisions::settings(),
@@ -146,6 +148,7 @@ fn run() -> Result<(), String> {
         let mut value = || args.next().ok_or(format!("{flag} needs a value"));
         match flag.as_str() {
             "--n" => n = parse(&value()?)?,
+            "--seed" => seed = Some(parse(&value()?)?),
             "--runs" => runs = parse(&value()?)?,
             "--frames" => frames = Some(parse(&value()?)?),
             "--substeps" => settings.substeps = parse(&value()?)?,
@@ -173,8 +176,12 @@ fn run() -> Result<(), String> {
             "--no-exact-edges" => settings.exact_edges = None,
             "--no-tethers" => settings.long_range_attachments = false,
             "--dihedral" => settings.isometric_bending = false,
-            "--self-collision" => settings.self_collision = true,
-            "--no-self-collision" => settings.self_collision = false,
+            "--self-collision" => {
+                let name = value()?;
+                settings.self_collision = SelfCollisionMethod::from_name(&name).ok_or(format!(
+                    "unknown self-collision method {name} (off, particles, triangles)"
+                ))?;
+            }
             "--no-wave" => wave = false,
             "--motion" => {
                 let name = value()?;
@@ -362,12 +369,13 @@ fn run() -> Result<(), String> {
             Ok(())
         }
         "drop" => {
-            let scene = SheetDrop { n };
+            let scene = seed.map_or(SheetDrop::new(n), |seed| SheetDrop::generated(n, seed));
             let (run, all_frames) =
                 repeat(runs, || scene.run(&settings, frames), |r| &r.frame_seconds);
             println!(
-                "{{\"scene\":\"drop\",\"n\":{n},\"method\":\"{method}\",\"self_collision\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"crossings\":{},\"max_strain\":{:.6},\"finite\":{}}}",
-                settings.self_collision,
+                "{{\"scene\":\"drop\",\"n\":{n},\"seed\":{},\"method\":\"{method}\",\"self_collision\":\"{}\",\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"closest_gap\":{:.4},\"self_contacts\":{},\"crossings\":{},\"max_strain\":{:.6},\"finite\":{}}}",
+                seed.map_or("null".to_string(), |s| s.to_string()),
+                settings.self_collision.name(),
                 settings.substeps,
                 settings.iterations,
                 median(&all_frames) * 1e3,

@@ -73,7 +73,11 @@ fn setup(
                     // A soft, drapey cloth that piles up in folds.
                     solver: SolverSettings {
                         bend_compliance: 1.0e4,
-                        self_collision: on,
+                        self_collision: if on {
+                            SelfCollisionMethod::Particles
+                        } else {
+                            SelfCollisionMethod::Off
+                        },
                         ..default()
                     },
                     ..default()
@@ -99,7 +103,7 @@ fn labels(
             continue;
         };
         let contacts = simulation.map_or(0, |s| s.solver().self_contact_count());
-        text.0 = if settings.solver.self_collision {
+        text.0 = if settings.solver.self_collision != SelfCollisionMethod::Off {
             format!("self-collision on: {contacts} pairs held apart")
         } else {
             "self-collision off".to_string()

@@ -184,7 +184,7 @@ pub mod prelude {
     pub use crate::cloth::plugin::{Cloth, ClothSettings, ClothSimulation, VertexAttachment};
     pub use crate::cloth::render_mesh::ClothSimulationMesh;
     pub use crate::cloth::wind_plugin::{Wind, WindSource};
-    pub use crate::cloth::{AirSettings, GridDesc, Gusts, SolverSettings};
+    pub use crate::cloth::{AirSettings, GridDesc, Gusts, SelfCollisionMethod, SolverSettings};
     pub use crate::collide::ContactMaterial;
     pub use crate::collide::plugin::{ClothCollider, ColliderShape, KinematicVelocity};
     pub use crate::fluid::plugin::{Fluid, FluidSource};

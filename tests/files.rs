@@ -36,7 +36,7 @@ fn unusual() -> ClothSettings {
     settings.solver.iterations = 3;
     settings.solver.method = SolverMethod::Hybrid { long_range: true };
     settings.solver.friction = 0.8;
-    settings.solver.self_collision = true;
+    settings.solver.self_collision = SelfCollisionMethod::Triangles;
     settings.solver.exact_edges = Some(bevy_drape::cloth::ExactEdges {
         newton_steps: 2,
         cg_iterations: 30,

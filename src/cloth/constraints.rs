@@ -90,6 +90,20 @@ pub struct Tether {
     pub length: f32,
 }
 
+/// Coulomb friction on positions (Macklin et al. 2014, "Unified particle physics", eq. 24):
+/// of a contact's `relative` displacement over the substep, the tangential part (across the
+/// unit `normal`) that friction removes: all of it if it is within `limit` (friction times
+/// the penetration; static), else `limit` of its length (kinetic).
+pub(crate) fn friction_removed(relative: Vec3A, normal: Vec3A, limit: f32) -> Vec3A {
+    let tangential = relative - normal * normal.dot(relative);
+    let slip = tangential.length();
+    if slip <= limit {
+        tangential
+    } else {
+        tangential * (limit / slip)
+    }
+}
+
 // For the scalar batch kernels (`batch/scalar.rs`), built off `x86_64` and in the tests.
 #[cfg(any(test, not(all(target_arch = "x86_64", target_feature = "sse2"))))]
 /// Projects the unilateral tether constraint `|x_p - x_anchor| <= length` (stiffness 1).

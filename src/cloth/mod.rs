@@ -14,6 +14,7 @@ pub(crate) mod embedding;
 pub(crate) mod fast_projection;
 pub(crate) mod flat_layout;
 pub(crate) mod garment;
+pub(crate) mod grid;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod isometric_bending;
 pub(crate) mod lod;
@@ -33,6 +34,8 @@ pub(crate) mod sim;
 pub(crate) mod state;
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 pub(crate) mod stretch_limits;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
+pub(crate) mod triangle_collision;
 pub(crate) mod volume;
 pub mod wind_plugin;
 
@@ -47,7 +50,8 @@ pub use lod::{LOD_MARGIN, LodBudget, LodLevel};
 pub use mass_spring::{SpringConstants, SpringSettings};
 pub use model::{ClothModel, Edge, EdgeKind, GridDesc, GridMesh};
 pub use settings::{
-    AdaptiveSubsteps, DampingMode, DivergenceBounds, ExactEdges, SolverMethod, SolverSettings,
+    AdaptiveSubsteps, DampingMode, DivergenceBounds, ExactEdges, SelfCollisionMethod, SolverMethod,
+    SolverSettings,
 };
 pub(crate) use sim::SubstepCoupling;
 pub use sim::diagnostics::{Divergence, StrainStats};
@@ -68,4 +72,5 @@ pub mod internals {
     pub use super::mass_spring::SpringSet;
     pub use super::self_collision::SelfCollision;
     pub use super::stretch_limits::straight_line_limits;
+    pub use super::triangle_collision::{TriangleSelfCollision, VertexTriangle};
 }

@@ -23,6 +23,8 @@
 
 use bevy::math::Vec3A;
 
+use super::constraints::friction_removed;
+use super::grid::{Grid, relative_travel, sort_into_cells};
 use super::model::ClothModel;
 use super::model::EdgeKind;
 
@@ -181,33 +183,18 @@ impl SelfCollision {
         if n == 0 {
             return;
         }
-        let max_travel = self.set_travel(&v[..n], dt, acceleration);
+        let max_travel =
+            relative_travel(&mut self.travel, &v[..n], dt, acceleration, self.distance);
         let radius = self.distance + 2.0 * max_travel;
         let Some(grid) = Grid::new(&x[..n], radius, MAX_CELLS_PER_PARTICLE * n) else {
             return;
         };
-        // Counting sort of the particles by cell.
-        self.cell_start.clear();
-        self.cell_start.resize(grid.cells() + 2, 0);
-        for (p, cell_of) in x[..n].iter().zip(&mut self.cell_of) {
-            *cell_of = grid.cell(*p).unwrap_or(u32::MAX);
-            if *cell_of != u32::MAX {
-                self.cell_start[*cell_of as usize] += 1;
-            }
-        }
-        let mut running = 0;
-        for count in &mut self.cell_start {
-            running += *count;
-            *count = running;
-        }
-        for i in (0..n).rev() {
-            let c = self.cell_of[i];
-            if c != u32::MAX {
-                self.cell_start[c as usize] -= 1;
-                self.cell_entries[self.cell_start[c as usize] as usize] = i as u32;
-                self.slot_of[i] = self.cell_start[c as usize];
-            }
-        }
+        let cells = (
+            &mut self.cell_of[..],
+            &mut self.cell_start,
+            &mut self.cell_entries[..],
+        );
+        sort_into_cells(&grid, &x[..n], cells, Some(&mut self.slot_of));
         let [nx, ny, nz] = grid.dims;
         // Particle by particle, so that the pairs come in the order the edges are swept.
         for i in 0..n {
@@ -259,30 +246,6 @@ impl SelfCollision {
         }
     }
 
-    /// Sets how far each particle travels relative to the cloth's common motion within `dt`
-    /// (at most the distance; zero for non-finite input) and returns the largest.
-    fn set_travel(&mut self, v: &[Vec3A], dt: f32, acceleration: f32) -> f32 {
-        let (low, high) = v
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((Vec3A::MAX, Vec3A::MIN), |(low, high), v| {
-                (low.min(*v), high.max(*v))
-            });
-        let centre = 0.5 * (low + high);
-        let fall = 0.5 * acceleration * dt * dt;
-        let mut largest = 0.0f32;
-        for (travel, v) in self.travel.iter_mut().zip(v) {
-            let t = (*v - centre).length() * dt + fall;
-            *travel = if t.is_finite() {
-                t.clamp(0.0, self.distance)
-            } else {
-                0.0
-            };
-            largest = largest.max(*travel);
-        }
-        largest
-    }
-
     /// Pushes apart every pair of the substep's candidates ([`Self::begin_substep`]) closer
     /// than its minimum distance, in the ratio of the
     /// inverse masses `w`, and applies Coulomb friction on positions (Macklin et al. 2014,
@@ -320,15 +283,7 @@ impl SelfCollision {
             let mut correction = normal * (penetration / wsum);
             if friction > 0.0 {
                 let relative = (x[i] - x_prev[i]) - (x[j] - x_prev[j]);
-                let tangential = relative - normal * normal.dot(relative);
-                let slip = tangential.length();
-                let limit = friction * penetration;
-                let removed = if slip <= limit {
-                    tangential
-                } else {
-                    tangential * (limit / slip)
-                };
-                correction -= removed / wsum;
+                correction -= friction_removed(relative, normal, friction * penetration) / wsum;
             }
             x[i] += correction * w[i];
             x[j] -= correction * w[j];
@@ -355,69 +310,6 @@ impl SelfCollision {
 
 /// Most grid cells per particle: a cloth spread thinly over a large box gets wider cells.
 const MAX_CELLS_PER_PARTICLE: usize = 8;
-
-/// A dense grid of cubic cells over the bounding box of the finite particles, cells numbered
-/// x fastest.
-struct Grid {
-    origin: Vec3A,
-    inv_cell: f32,
-    dims: [u32; 3],
-}
-
-impl Grid {
-    /// Cells at least `min_cell` wide and at most `max_cells` of them (at least one); `None`
-    /// when no particle is finite.
-    fn new(x: &[Vec3A], min_cell: f32, max_cells: usize) -> Option<Self> {
-        let (low, high) = x
-            .iter()
-            .filter(|p| p.is_finite())
-            .fold((Vec3A::MAX, Vec3A::MIN), |(low, high), p| {
-                (low.min(*p), high.max(*p))
-            });
-        if low.x > high.x {
-            return None;
-        }
-        let extent = high - low;
-        let mut cell = min_cell
-            .max(extent.max_element() * 1.0e-6)
-            .max(f32::MIN_POSITIVE);
-        loop {
-            let dims = (extent / cell).floor().as_uvec3() + 1;
-            let cells = dims.x as u64 * dims.y as u64 * dims.z as u64;
-            if cells <= max_cells.max(1) as u64 {
-                return Some(Self {
-                    origin: low,
-                    inv_cell: 1.0 / cell,
-                    dims: dims.to_array(),
-                });
-            }
-            cell *= 1.25;
-        }
-    }
-
-    fn cells(&self) -> usize {
-        self.dims.iter().map(|&d| d as usize).product()
-    }
-
-    fn index(&self, [x, y, z]: [u32; 3]) -> u32 {
-        x + self.dims[0] * (y + self.dims[1] * z)
-    }
-
-    fn coords(&self, cell: u32) -> [u32; 3] {
-        let [nx, ny, _] = self.dims;
-        [cell % nx, (cell / nx) % ny, cell / (nx * ny)]
-    }
-
-    /// The cell of `p`; `None` when `p` is not finite.
-    fn cell(&self, p: Vec3A) -> Option<u32> {
-        if !p.is_finite() {
-            return None;
-        }
-        let c = ((p - self.origin) * self.inv_cell).floor().as_uvec3();
-        let c = c.min(bevy::math::UVec3::from_array(self.dims) - 1);
-        Some(self.index(c.to_array()))
-    }
-}
 
 #[cfg(test)]
 mod tests {

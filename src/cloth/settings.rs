@@ -91,6 +91,50 @@ pub enum DampingMode {
     Plain,
 }
 
+/// How a cloth keeps from passing through itself ([`SolverSettings::self_collision`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Reflect)]
+pub enum SelfCollisionMethod {
+    /// Nothing: the cloth passes through itself freely.
+    #[default]
+    Off,
+    /// Particles that share no edge are kept at least the mean structural rest length apart
+    /// (`cloth/self_collision.rs`): cheap, but a particle can slip between the corners of a
+    /// triangle when the spacing is large against the motion.
+    Particles,
+    /// Every particle is kept on its side of the cloth's own triangles near it, at
+    /// [`SolverSettings::thickness`] (`cloth/triangle_collision.rs`): the layers of a fold
+    /// lie a thickness apart, and a particle does not pass between a triangle's corners.
+    Triangles,
+}
+
+impl SelfCollisionMethod {
+    /// Every method, in the order of their cost.
+    pub const ALL: [Self; 3] = [Self::Off, Self::Particles, Self::Triangles];
+
+    /// The method's name: `off`, `particles` or `triangles`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Particles => "particles",
+            Self::Triangles => "triangles",
+        }
+    }
+
+    /// The method of a [`Self::name`].
+    ///
+    /// ```
+    /// use bevy_drape::cloth::SelfCollisionMethod;
+    /// assert_eq!(
+    ///     SelfCollisionMethod::from_name("triangles"),
+    ///     Some(SelfCollisionMethod::Triangles)
+    /// );
+    /// assert_eq!(SelfCollisionMethod::from_name("on"), None);
+    /// ```
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 /// Everything the solver needs to know about one cloth besides its model and state.
 ///
 /// Units are SI. Compliances are inverse stiffnesses per constraint: `stretch_compliance` in
@@ -152,10 +196,9 @@ pub struct SolverSettings {
     /// above `substeps` as far as the explicit stability bound needs
     /// (`cloth/mass_spring.rs`). Default: `false`.
     pub auto_substeps: bool,
-    /// Keep particles of the cloth that share no edge at least the mean structural rest length
-    /// apart (`cloth/self_collision.rs`), so the cloth does not pass through itself.
-    /// Default: `false`.
-    pub self_collision: bool,
+    /// How the cloth keeps from passing through itself. Default:
+    /// [`SelfCollisionMethod::Off`].
+    pub self_collision: SelfCollisionMethod,
     /// Hold the volume a closed cloth encloses (a balloon) at `pressure` times its rest
     /// volume (`cloth/volume.rs`; XPBD, PBD and hybrid). An open cloth asked for it is
     /// stepped without it and reports [`crate::cloth::ClothSolver::volume_error`]. Default:
@@ -308,7 +351,7 @@ impl Default for SolverSettings {
             isometric_bending: true,
             springs: SpringSettings::default(),
             auto_substeps: false,
-            self_collision: false,
+            self_collision: SelfCollisionMethod::Off,
             volume: None,
             adaptive: None,
             exact_edges: Some(ExactEdges::default()),

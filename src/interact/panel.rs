@@ -19,7 +19,7 @@ use crate::cloth::debug_colors::DebugColorMode;
 use crate::cloth::plugin::{
     ClothDebugColors, ClothSettings, ClothSimulation, DefaultClothSettings,
 };
-use crate::cloth::settings::{DampingMode, ExactEdges, SolverMethod};
+use crate::cloth::settings::{DampingMode, ExactEdges, SelfCollisionMethod, SolverMethod};
 use crate::cloth::wind_plugin::Wind;
 use crate::collide::plugin::ClothCollider;
 use crate::fluid::FluidSettings;
@@ -390,7 +390,12 @@ fn cloth_controls(ui: &mut egui::Ui, settings: &mut ClothSettings) {
     });
     ui.add(egui::Slider::new(&mut solver.thickness, 0.0..=0.05).text("thickness, m"));
     ui.add(egui::Slider::new(&mut solver.friction, 0.0..=1.5).text("friction"));
-    ui.checkbox(&mut solver.self_collision, "self-collision");
+    ui.horizontal(|ui| {
+        ui.label("self-collision");
+        for method in SelfCollisionMethod::ALL {
+            ui.selectable_value(&mut solver.self_collision, method, method.name());
+        }
+    });
     // The hybrid takes long-range attachments only when its method says so.
     match &mut solver.method {
         SolverMethod::Hybrid { long_range } => {

@@ -17,8 +17,7 @@ use super::model::{BendingPair, ClothModel, Edge, EdgeKind};
 use super::ordering::{apply_order, colour_order};
 use super::rest_paths::RestPaths;
 use super::rims::{Rim, find_rims, find_rings};
-use super::self_collision::SelfCollision;
-use super::settings::{SolverMethod, SolverSettings};
+use super::settings::{SelfCollisionMethod, SolverMethod, SolverSettings};
 use super::state::ClothState;
 use super::stretch_limits::straight_line_limits;
 use super::volume::VolumeConstraint;
@@ -36,6 +35,7 @@ mod origin;
 pub(crate) mod parallel;
 mod passes;
 mod pins;
+mod self_contacts;
 mod sleep;
 mod step;
 mod timings;
@@ -152,8 +152,8 @@ pub struct ClothSolver {
     /// The fast projection of the structural edges, built the first time a step asks for it
     /// ([`SolverSettings::exact_edges`]).
     fast_projection: Option<FastProjection>,
-    /// Built the first time a step asks for self-collision.
-    self_collision: Option<SelfCollision>,
+    /// Built the first time a step asks for self-collision, with the method it asks for.
+    self_collision: Option<self_contacts::SelfContacts>,
     self_contacts: usize,
     /// The substep count [`SolverSettings::adaptive`] chose for the next step (0: not yet).
     adaptive_substeps: u32,
@@ -504,8 +504,8 @@ impl ClothSolver {
             self.timings.air = laps.lap();
         }
         self.self_contacts = 0;
-        if settings.self_collision {
-            self.find_self_contacts(acceleration, dt);
+        if settings.self_collision != SelfCollisionMethod::Off {
+            self.find_self_contacts(settings, acceleration, dt);
             self.timings.self_collision = laps.lap();
         }
         // Far from the world's origin, stepped near it (`origin.rs`); a coupling's own
@@ -590,29 +590,6 @@ impl ClothSolver {
             self.edge_batch_lambdas = vec![Vec4::ZERO; self.edge_batches.len()];
             self.halves = None;
         }
-    }
-
-    /// Finds the self-contact candidates of the coming step (building the tables the first
-    /// time): pairs that may close in to the self-collision distance within `dt`.
-    fn find_self_contacts(&mut self, acceleration: Vec3, dt: f32) {
-        if self.self_collision.is_none() {
-            self.self_collision = SelfCollision::new(&self.model, None);
-        }
-        let Some(sc) = self.self_collision.as_mut() else {
-            return;
-        };
-        sc.find_pairs(
-            &self.state.positions,
-            &self.state.velocities,
-            dt,
-            acceleration.length(),
-        );
-    }
-
-    /// How many pairs of particles were held apart by self-collision in the last step's last
-    /// iteration (the most in any substep).
-    pub fn self_contact_count(&self) -> usize {
-        self.self_contacts
     }
 }
 

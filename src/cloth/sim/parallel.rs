@@ -16,6 +16,7 @@
 use std::cell::UnsafeCell;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
+use bevy::math::Vec3A;
 use bevy::tasks::TaskPool;
 
 /// Runs two pieces of work that share no data, at the same time where it can.
@@ -203,6 +204,66 @@ pub fn with_helper<R: Send>(pool: &TaskPool, f: impl FnOnce(&dyn Join) -> R + Se
         Some(r) => r,
         None => unreachable!("the scope ran its body"),
     }
+}
+
+/// A run of particles: their positions, previous positions, velocities and inverse masses,
+/// from particle `first` on.
+pub(super) struct Particles<'a> {
+    pub(super) x: &'a mut [Vec3A],
+    pub(super) x_prev: &'a mut [Vec3A],
+    pub(super) v: &'a mut [Vec3A],
+    pub(super) w: &'a [f32],
+    pub(super) first: usize,
+}
+
+/// Runs `f` on every particle: on all of them at once, or with `middle` on the two halves
+/// split there, at the same time through `join`.
+pub(super) fn per_half(
+    join: &dyn Join,
+    middle: Option<usize>,
+    x: &mut [Vec3A],
+    x_prev: &mut [Vec3A],
+    v: &mut [Vec3A],
+    w: &[f32],
+    f: impl Fn(Particles) + Sync,
+) {
+    let n = x.len();
+    let middle = middle.filter(|&m| m <= n && x_prev.len() == n && v.len() == n && w.len() == n);
+    let Some(m) = middle else {
+        f(Particles {
+            x,
+            x_prev,
+            v,
+            w,
+            first: 0,
+        });
+        return;
+    };
+    let (x0, x1) = x.split_at_mut(m);
+    let (p0, p1) = x_prev.split_at_mut(m);
+    let (v0, v1) = v.split_at_mut(m);
+    let (w0, w1) = w.split_at(m);
+    let f = &f;
+    join.join(
+        &mut || {
+            f(Particles {
+                x: &mut *x0,
+                x_prev: &mut *p0,
+                v: &mut *v0,
+                w: w0,
+                first: 0,
+            })
+        },
+        &mut || {
+            f(Particles {
+                x: &mut *x1,
+                x_prev: &mut *p1,
+                v: &mut *v1,
+                w: w1,
+                first: m,
+            })
+        },
+    );
 }
 
 #[cfg(test)]

@@ -41,7 +41,7 @@
 use bevy::math::{Vec3, Vec3A, Vec4};
 
 use super::halves::{Halves, Sweep};
-use super::parallel::Join;
+use super::parallel::{Join, per_half};
 use super::passes::{damp, project_edges, project_edges_jacobi, project_held_edges};
 use super::timings::{Laps, StepTimings};
 use super::{ClothSolver, SubstepCoupling};
@@ -50,7 +50,7 @@ use crate::cloth::fast_projection::FastProjection;
 use crate::cloth::mass_spring::auto_substeps;
 use crate::cloth::model::EdgeKind;
 use crate::cloth::rims::project_rim;
-use crate::cloth::settings::{SolverMethod, SolverSettings};
+use crate::cloth::settings::{SelfCollisionMethod, SolverMethod, SolverSettings};
 use crate::cloth::state::ClothState;
 use crate::collide::SolverCollider;
 use crate::collide::contact::{ContactPass, ContactScratch};
@@ -205,7 +205,7 @@ impl ClothSolver {
         let mut self_collision = self
             .self_collision
             .as_mut()
-            .filter(|_| settings.self_collision);
+            .filter(|_| settings.self_collision != SelfCollisionMethod::Off);
         let mut laps = Laps::start();
         self.contacts
             .begin_step(colliders, x, travel, settings.thickness);
@@ -321,7 +321,7 @@ impl ClothSolver {
 
             // 2. Project.
             if let Some(sc) = self_collision.as_deref_mut() {
-                sc.begin_substep(x, substeps);
+                sc.begin_substep(x, x_prev, substeps);
                 t.self_collision += laps.lap();
             }
             if !colliders.is_empty() {
@@ -392,7 +392,7 @@ impl ClothSolver {
                     if let Some(coupling) = coupling.as_deref_mut() {
                         coupling.iterate(x, x_prev, w, &self.model.triangles);
                     }
-                    if let Some(sc) = self_collision.as_deref() {
+                    if let Some(sc) = self_collision.as_deref_mut() {
                         let touching = sc.project(x, x_prev, w, settings.friction, None);
                         if iteration + 1 == iterations {
                             self.self_contacts = self.self_contacts.max(touching);
@@ -474,7 +474,7 @@ impl ClothSolver {
                 // collider. Its self-collision is discrete: the correction also changes the
                 // velocity.
                 if mass_spring {
-                    if let Some(sc) = self_collision.as_deref() {
+                    if let Some(sc) = self_collision.as_deref_mut() {
                         let discrete = Some((v.as_mut_slice(), inv_h));
                         let touching = sc.project(x, x_prev, w, settings.friction, discrete);
                         self.self_contacts = self.self_contacts.max(touching);
@@ -493,6 +493,12 @@ impl ClothSolver {
                         t.contacts += laps.lap();
                     }
                 }
+            }
+            // The triangles held once more after the iterations' last constraints, before the
+            // exact edges, which move the particles least.
+            if let Some(sc) = self_collision.as_deref_mut().filter(|_| !mass_spring) {
+                sc.close(x, x_prev, w);
+                t.self_collision += laps.lap();
             }
             // The structural edges solved exactly (`fast_projection.rs`), while the cloth
             // touches a collider (the long-range attachments hold a cloth hanging from pins).
@@ -589,16 +595,6 @@ impl ClothSolver {
     }
 }
 
-/// A run of particles: their positions, previous positions, velocities and inverse masses,
-/// from particle `first` on.
-struct Particles<'a> {
-    x: &'a mut [Vec3A],
-    x_prev: &'a mut [Vec3A],
-    v: &'a mut [Vec3A],
-    w: &'a [f32],
-    first: usize,
-}
-
 /// What a pass over the colliders needs besides the particles, fixed over a step.
 #[derive(Clone, Copy)]
 struct ColliderPass<'a> {
@@ -646,54 +642,4 @@ impl ColliderPass<'_> {
             edges.project(c, x, x_prev, w, reach);
         }
     }
-}
-
-/// Runs `f` on every particle: on all of them at once, or with `middle` on the two halves
-/// split there, at the same time through `join`.
-fn per_half(
-    join: &dyn Join,
-    middle: Option<usize>,
-    x: &mut [Vec3A],
-    x_prev: &mut [Vec3A],
-    v: &mut [Vec3A],
-    w: &[f32],
-    f: impl Fn(Particles) + Sync,
-) {
-    let n = x.len();
-    let middle = middle.filter(|&m| m <= n && x_prev.len() == n && v.len() == n && w.len() == n);
-    let Some(m) = middle else {
-        f(Particles {
-            x,
-            x_prev,
-            v,
-            w,
-            first: 0,
-        });
-        return;
-    };
-    let (x0, x1) = x.split_at_mut(m);
-    let (p0, p1) = x_prev.split_at_mut(m);
-    let (v0, v1) = v.split_at_mut(m);
-    let (w0, w1) = w.split_at(m);
-    let f = &f;
-    join.join(
-        &mut || {
-            f(Particles {
-                x: &mut *x0,
-                x_prev: &mut *p0,
-                v: &mut *v0,
-                w: w0,
-                first: 0,
-            })
-        },
-        &mut || {
-            f(Particles {
-                x: &mut *x1,
-                x_prev: &mut *p1,
-                v: &mut *v1,
-                w: w1,
-                first: m,
-            })
-        },
-    );
 }

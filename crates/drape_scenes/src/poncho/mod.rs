@@ -17,7 +17,7 @@ use bevy_drape::cloth::PonchoDesc;
 use bevy_drape::cloth::mesh::grid_mesh_from;
 use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
 use bevy_drape::cloth::render_mesh::ClothSimulationMesh;
-use bevy_drape::cloth::{DivergenceBounds, SolverSettings};
+use bevy_drape::cloth::{DivergenceBounds, SelfCollisionMethod, SolverSettings};
 use bevy_drape::collide::plugin::ClothCollider;
 use bevy_drape::schedule::DrapeSystems;
 use bevy_drape::skeleton::humanoid::humanoid;
@@ -98,7 +98,7 @@ impl Default for PonchoScene {
             source: PonchoSource::Asset("meshes/poncho.obj".into()),
             simulated: Some(PonchoSource::Asset("meshes/poncho_coarse.obj".into())),
             solver: SolverSettings {
-                self_collision: true,
+                self_collision: SelfCollisionMethod::Particles,
                 shear_compliance: 0.1,
                 ..SolverSettings::default()
             },

@@ -85,7 +85,7 @@ struct S3Line {
     motion: &'static str,
     particles: usize,
     method: &'static str,
-    self_collision: bool,
+    self_collision: &'static str,
     substeps: u32,
     iterations: u32,
     /// `null` when infinite (free shear).
@@ -141,7 +141,7 @@ impl PonchoRun {
             motion: self.motion.name(),
             particles: self.particles,
             method: solver.method.name(),
-            self_collision: solver.self_collision,
+            self_collision: solver.self_collision.name(),
             substeps: solver.substeps,
             iterations: solver.iterations,
             shear_compliance: solver.shear_compliance,

@@ -5,26 +5,55 @@ use std::time::Instant;
 use bevy::math::{Vec3, Vec3A};
 use bevy_drape::cloth::internals::SelfCollision;
 use bevy_drape::cloth::{
-    ClothModel, ClothSolver, GridDesc, SolverSettings, TwoPoses, count_self_crossings,
+    ClothModel, ClothSolver, GridDesc, SelfCollisionMethod, SolverSettings, TwoPoses,
+    count_self_crossings,
 };
 use bevy_drape::collide::{ContactMaterial, RigidPose, SolverCollider, SolverShape};
 
 use super::common::{DENSITY, FRAME_RATE, GRAVITY};
 
 /// The sheet drop of the self-collision example: the S1 sheet (`n` x `n` vertices, 1 m
-/// square), unpinned, hanging nearly vertical (tilted [`SheetDrop::TILT`] from the vertical)
-/// with its lower edge [`SheetDrop::HEIGHT`] above the ground; it falls, hits the ground and
-/// folds onto itself.
+/// square), unpinned, hanging nearly vertical (tilted `tilt` from the vertical, [`SheetDrop::TILT`]
+/// in the example) with its lower edge `height` above the ground ([`SheetDrop::HEIGHT`]); it
+/// falls, hits the ground and folds onto itself.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SheetDrop {
     /// Vertices per side.
     pub n: u32,
+    /// Tilt from the vertical, radians.
+    pub tilt: f32,
+    /// Height of the lower edge at the start, m.
+    pub height: f32,
+    /// Turn of the sheet about the vertical, radians.
+    pub turn: f32,
 }
 
 impl SheetDrop {
-    /// Height of the lower edge at the start, m.
+    /// The example's drop: tilted [`Self::TILT`], [`Self::HEIGHT`] above the ground.
+    pub fn new(n: u32) -> Self {
+        Self {
+            n,
+            tilt: Self::TILT,
+            height: Self::HEIGHT,
+            turn: 0.0,
+        }
+    }
+
+    /// A drop generated from `seed`: tilted 0.05-0.35 rad, its lower edge 0.1-0.6 m up, turned
+    /// anyhow about the vertical (it lands on its lower edge and folds onto itself).
+    pub fn generated(n: u32, seed: u64) -> Self {
+        let mut rng = bevy_drape::rng::Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
+        Self {
+            n,
+            tilt: rng.range(0.05, 0.35),
+            height: rng.range(0.1, 0.6),
+            turn: rng.range(0.0, std::f32::consts::TAU),
+        }
+    }
+
+    /// The example's height of the lower edge at the start, m.
     pub const HEIGHT: f32 = 0.3;
-    /// Tilt from the vertical, radians.
+    /// The example's tilt from the vertical, radians.
     pub const TILT: f32 = 0.2;
     /// Friction of the ground.
     pub const FRICTION: f32 = 0.5;
@@ -32,8 +61,8 @@ impl SheetDrop {
     /// default 500 the sheet falls over and lies flat).
     pub const BEND_COMPLIANCE: f32 = 1.0e4;
 
-    /// The scene's solver settings, with self-collision on or off.
-    pub fn settings(self_collision: bool) -> SolverSettings {
+    /// The scene's solver settings, with a self-collision method.
+    pub fn settings(self_collision: SelfCollisionMethod) -> SolverSettings {
         SolverSettings {
             bend_compliance: Self::BEND_COMPLIANCE,
             self_collision,
@@ -43,9 +72,9 @@ impl SheetDrop {
 
     /// The grid: vertex row 0 is the lower edge.
     pub fn grid(&self) -> GridDesc {
-        let mut grid = GridDesc::square(1.0, self.n, Vec3::new(0.0, Self::HEIGHT, 0.0));
-        grid.orientation =
-            bevy::math::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2 + Self::TILT);
+        let mut grid = GridDesc::square(1.0, self.n, Vec3::new(0.0, self.height, 0.0));
+        grid.orientation = bevy::math::Quat::from_rotation_y(self.turn)
+            * bevy::math::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2 + self.tilt);
         grid
     }
 
