@@ -13,6 +13,7 @@
 //!     [--warmup 0] [--lod] [--runs 3]
 //! cargo run --release --example scenes -- mesh-drop --mesh bunny|duck|spider|PATH.obj [--n 16] [--frames 180]
 //! cargo run --release --example scenes -- pour [--substeps 16] [--iterations 4] [--frames 360] [--runs 3]
+//! cargo run --release --example scenes -- layers [--n 32] [--seed S] [--apart] [--frames 180]
 //! ```
 //!
 //! `s3 --motion` moves the character through the world (see
@@ -23,6 +24,15 @@
 //! `--simulate-n` simulates it on the pattern with that many vertices per side instead,
 //! `--simulate-drawn` (or `--n` alone) simulates what it draws. Its line counts `crossings`:
 //! how many times a particle went through one of its poncho's triangles between two steps.
+//! `--layers 2` puts a shawl under every poncho (`PonchoScene::layers`, `ClothLayers`): the
+//! line adds `layer_crossings` (particles of one through the other's triangles) and the
+//! shawl's worst strain after the first second.
+//!
+//! `layers` drops two `--n` x `--n` sheets one above the other onto a sphere
+//! (`LayeredDrop`; `--seed S` generates their gap, turn, shift and tilt), stepped as layers of
+//! one solve (`LayerSolver`) or, with `--apart`, each alone: the cost, the crossings between
+//! them (`crossings`) and of each through itself (`crossings_own`), the closest two particles
+//! of the two sheets at the end (`closest`, m) and the worst strain.
 //!
 //! `s1 --threads N` runs S1 a second time with every step split over its thread and a helper
 //! task (`ClothSolver::step_with`, `with_helper`) and adds that run's ms per frame, its ratio
@@ -94,7 +104,8 @@ use drape_scenes::poncho::{
     run_headless,
 };
 use drape_scenes::scenes::{
-    Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, MeshDrop, SheetDrop, median,
+    Collisions, Drape, FRAME_RATE, Flag, FlagRun, HangingCloth, LayeredDrop, MeshDrop, SheetDrop,
+    median,
 };
 use drape_scenes::water::Pour;
 
@@ -114,6 +125,7 @@ fn run() -> Result<(), String> {
     let mut frames: Option<u32> = None;
     let mut settings = match scene.as_str() {
         "drop" => SheetDrop::settings(SelfCollisionMethod::Off),
+        "layers" => LayeredDrop::settings(),
         "s3" | "crowd" => PonchoScene::default().solver,
         "wind" => Flag::settings(),
         "collisions" => Collisions::settings(),
@@ -135,6 +147,8 @@ fn run() -> Result<(), String> {
     let mut standing = 0u32;
     let mut warmup = 0.0f32;
     let mut lod = false;
+    let mut apart = false;
+    let mut layers = 1u32;
     let mut threads: Option<usize> = None;
     let n_given = std::env::args().any(|a| a == "--n");
     let mut method = if scene == "collisions" {
@@ -208,6 +222,8 @@ fn run() -> Result<(), String> {
             "--standing" => standing = parse(&value()?)?,
             "--warmup" => warmup = parse(&value()?)?,
             "--lod" => lod = true,
+            "--apart" => apart = true,
+            "--layers" => layers = parse(&value()?)?,
             "--threads" => threads = Some(parse(&value()?)?),
             other => return Err(format!("unknown option {other}")),
         }
@@ -227,7 +243,7 @@ fn run() -> Result<(), String> {
     settings.validate().map_err(|e| e.to_string())?;
     let frames = frames.unwrap_or(match scene.as_str() {
         "s3" | "crowd" => 600,
-        "s2" => 180,
+        "s2" | "layers" => 180,
         "pour" => 360,
         _ => 120,
     });
@@ -387,6 +403,28 @@ fn run() -> Result<(), String> {
             );
             Ok(())
         }
+        "layers" => {
+            let scene = seed.map_or(LayeredDrop::new(n), |seed| LayeredDrop::generated(n, seed));
+            let (run, all_frames) = repeat(
+                runs,
+                || scene.run(&settings, frames, !apart),
+                |r| &r.frame_seconds,
+            );
+            println!(
+                "{{\"scene\":\"layers\",\"n\":{n},\"seed\":{},\"layered\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"crossings\":{},\"crossings_own\":{},\"closest\":{:.4},\"max_strain\":{:.6},\"finite\":{}}}",
+                seed.map_or("null".to_string(), |s| s.to_string()),
+                !apart,
+                settings.substeps,
+                settings.iterations,
+                median(&all_frames) * 1e3,
+                run.crossings_between,
+                run.crossings_own,
+                run.closest,
+                run.max_strain,
+                run.finite
+            );
+            Ok(())
+        }
         "s3" => {
             let mut scene = PonchoScene {
                 solver: settings,
@@ -394,6 +432,7 @@ fn run() -> Result<(), String> {
                 motion,
                 inertia,
                 speed_limit,
+                layers,
                 ..PonchoScene::default()
             };
             // Drawn: the shipped OBJ, or the pattern with `--n` vertices and `--neck-radius`.
@@ -616,7 +655,7 @@ fn run() -> Result<(), String> {
             Ok(())
         }
         other => Err(format!(
-            "unknown scene {other} (s1, s2, s3, drop, wind, collisions, crowd, pour)"
+            "unknown scene {other} (s1, s2, s3, drop, layers, wind, collisions, crowd, pour)"
         )),
     }
 }

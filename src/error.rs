@@ -91,6 +91,16 @@ pub enum ClothError {
         /// What the valid range is.
         reason: &'static str,
     },
+    /// Cloths to be stepped as layers of one solve: none were given.
+    #[error("no cloths to step as layers")]
+    NoLayers,
+    /// A layer of a solve is missing or is not the cloth it was built from (another particle
+    /// count): the solve must be built again.
+    #[error("layer {layer} is not the cloth the layered solve was built with")]
+    LayerChanged {
+        /// The layer's place, innermost first.
+        layer: usize,
+    },
 }
 
 impl ClothError {

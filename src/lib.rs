@@ -181,7 +181,9 @@ use skeleton::plugin::SkeletonPlugin;
 pub mod prelude {
     pub use crate::DrapePlugins;
     pub use crate::cloth::mesh::grid_mesh;
-    pub use crate::cloth::plugin::{Cloth, ClothSettings, ClothSimulation, VertexAttachment};
+    pub use crate::cloth::plugin::{
+        Cloth, ClothLayers, ClothSettings, ClothSimulation, VertexAttachment,
+    };
     pub use crate::cloth::render_mesh::ClothSimulationMesh;
     pub use crate::cloth::wind_plugin::{Wind, WindSource};
     pub use crate::cloth::{AirSettings, GridDesc, Gusts, SelfCollisionMethod, SolverSettings};

@@ -27,6 +27,7 @@ mod gltf_character;
 mod gltf_ik;
 mod ik;
 mod interaction;
+mod layers;
 mod mass_spring;
 mod mesh_colliders;
 mod moving_character_cloth;

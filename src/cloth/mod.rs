@@ -56,8 +56,8 @@ pub use settings::{
 pub(crate) use sim::SubstepCoupling;
 pub use sim::diagnostics::{Divergence, StrainStats};
 pub use sim::{
-    ClothSolver, Join, MAX_SPEED_CHANGE, MAX_STEP, ORIGIN_GRID, OneThread, Pin, SleepSettings,
-    StepTimings, with_helper,
+    ClothSolver, Join, LayerSolver, MAX_SPEED_CHANGE, MAX_STEP, ORIGIN_GRID, OneThread, Pin,
+    SleepSettings, StepTimings, with_helper,
 };
 pub use state::ClothState;
 pub use volume::VolumeSettings;

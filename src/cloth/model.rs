@@ -430,6 +430,53 @@ impl ClothModel {
         })
     }
 
+    /// One model holding `parts` side by side: the particles of part `k` follow those of the
+    /// parts before it, in their order, and its triangles, edges and bending pairs name them
+    /// there. The masses are each part's own (the first part's density, the others' told
+    /// apart by point masses); the rest shapes are each part's, so the parts are not joined.
+    ///
+    /// Errors: no parts.
+    pub fn side_by_side(parts: &[&ClothModel]) -> Result<Self, ClothError> {
+        let density = parts.first().ok_or(ClothError::NoLayers)?.density;
+        let mut merged = Self {
+            rest_positions: Vec::new(),
+            triangles: Vec::new(),
+            edges: Vec::new(),
+            bending_pairs: Vec::new(),
+            area_shares: Vec::new(),
+            point_masses: Vec::new(),
+            density,
+            grid: None,
+            warnings: Vec::new(),
+        };
+        for part in parts {
+            let offset = merged.rest_positions.len() as u32;
+            merged
+                .rest_positions
+                .extend_from_slice(&part.rest_positions);
+            merged
+                .triangles
+                .extend(part.triangles.iter().map(|t| t.map(|i| i + offset)));
+            merged.edges.extend(part.edges.iter().map(|e| Edge {
+                particles: e.particles.map(|i| i + offset),
+                ..*e
+            }));
+            merged
+                .bending_pairs
+                .extend(part.bending_pairs.iter().map(|b| BendingPair {
+                    particles: b.particles.map(|i| i + offset),
+                    ..*b
+                }));
+            merged.area_shares.extend_from_slice(&part.area_shares);
+            merged
+                .point_masses
+                .extend((0..part.particle_count()).map(|i| {
+                    part.point_masses[i] + (part.density - density) * part.area_shares[i]
+                }));
+        }
+        Ok(merged)
+    }
+
     /// Number of particles.
     pub(crate) fn particle_count(&self) -> usize {
         self.rest_positions.len()

@@ -3,6 +3,7 @@
 
 mod budget;
 mod components;
+mod layers;
 mod spawn;
 mod step;
 mod write_back;
@@ -12,6 +13,7 @@ pub use components::{
     ClothSettingsFile, ClothSimulation, ClothSleeping, DefaultClothSettings, OnDivergence,
     VertexAttachment,
 };
+pub use layers::ClothLayers;
 
 use bevy::app::{App, Plugin, PostUpdate};
 use bevy::prelude::*;
@@ -22,6 +24,7 @@ use crate::schedule::{
     ClothCoupling, ClothCouplingInstalled, DrapeSchedule, DrapeSystems, NoCoupling,
 };
 use budget::mark_cloths;
+use layers::build_layers;
 use spawn::build_cloths;
 use step::step_cloths;
 use write_back::write_back_meshes;
@@ -43,6 +46,7 @@ impl Plugin for ClothPlugin {
             ClothPaint,
             ClothSleeping,
             ClothLevelOfDetail,
+            ClothLayers,
         )>()
         .init_resource::<DefaultClothSettings>()
         .init_resource::<ClothLevelOfDetail>()
@@ -53,6 +57,10 @@ impl Plugin for ClothPlugin {
             step_cloths::<NoCoupling>
                 .in_set(DrapeSystems::Step)
                 .run_if(not(resource_exists::<ClothCouplingInstalled>)),
+        )
+        .add_systems(
+            schedule,
+            build_layers.after(build_cloths).before(DrapeSystems::Step),
         )
         .add_systems(schedule, mark_cloths.after(DrapeSystems::Step))
         .add_systems(

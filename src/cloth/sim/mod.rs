@@ -31,6 +31,7 @@ mod adaptive;
 mod colliders;
 pub(crate) mod diagnostics;
 mod halves;
+mod layers;
 mod origin;
 pub(crate) mod parallel;
 mod passes;
@@ -43,6 +44,7 @@ mod volume;
 mod wind;
 
 use halves::Halves;
+pub use layers::LayerSolver;
 pub use origin::ORIGIN_GRID;
 pub use parallel::{Join, OneThread, with_helper};
 use passes::JacobiScratch;
@@ -183,6 +185,9 @@ pub struct ClothSolver {
     carried: Option<(FrameStep, f32)>,
     /// The wind relative to the carried motion, per particle (scratch).
     relative_wind: Vec<Vec3A>,
+    /// The cloths a [`LayerSolver`] solves together, each a range of particles (empty: one
+    /// cloth); each is damped about its own rigid motion.
+    parts: Vec<std::ops::Range<usize>>,
 }
 
 impl ClothSolver {
@@ -289,6 +294,7 @@ impl ClothSolver {
             timings: StepTimings::default(),
             carried: None,
             relative_wind: vec![Vec3A::ZERO; n],
+            parts: Vec::new(),
         }
     }
 

@@ -5,6 +5,8 @@ use bevy::math::Vec3A;
 
 use super::parallel::Join;
 use crate::cloth::constraints::{Projection, project_distance};
+use std::ops::Range;
+
 use crate::cloth::damping::{damp_plain, damp_rigid, damp_rigid_halves};
 use crate::cloth::model::{Edge, EdgeKind};
 use crate::cloth::settings::{DampingMode, SolverSettings};
@@ -130,7 +132,8 @@ pub(super) fn project_edges_jacobi(
 
 /// Damps the velocities by the fraction `k` as [`SolverSettings::damping_mode`] says.
 /// `masses` are the free particles' masses (0 for pinned ones), `w` the inverse masses. With
-/// `middle`, the two halves split there are damped at the same time through `join`.
+/// `middle`, the two halves split there are damped at the same time through `join`. With
+/// `parts` (cloths solved together as layers), each part's rigid motion is its own.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn damp(
     settings: &SolverSettings,
@@ -141,8 +144,21 @@ pub(super) fn damp(
     masses: &[f32],
     join: &dyn Join,
     middle: Option<usize>,
+    parts: &[Range<usize>],
 ) {
     if k <= 0.0 {
+        return;
+    }
+    if settings.damping_mode == DampingMode::Rigid && !parts.is_empty() {
+        let n = v.len().min(masses.len()).min(x.len());
+        for part in parts.iter().filter(|p| p.end <= n) {
+            damp_rigid(
+                &x[part.clone()],
+                &mut v[part.clone()],
+                &masses[part.clone()],
+                k,
+            );
+        }
         return;
     }
     let middle = middle.filter(|&m| m <= v.len() && w.len() == v.len());

@@ -585,6 +585,7 @@ impl ClothSolver {
                 &self.free_masses,
                 join,
                 middle,
+                &self.parts,
             );
             t.predict += laps.lap();
             if let Some(coupling) = coupling.as_deref_mut() {

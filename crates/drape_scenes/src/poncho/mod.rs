@@ -15,7 +15,7 @@ use bevy::prelude::*;
 
 use bevy_drape::cloth::PonchoDesc;
 use bevy_drape::cloth::mesh::grid_mesh_from;
-use bevy_drape::cloth::plugin::{Cloth, ClothSettings};
+use bevy_drape::cloth::plugin::{Cloth, ClothLayers, ClothSettings};
 use bevy_drape::cloth::render_mesh::ClothSimulationMesh;
 use bevy_drape::cloth::{DivergenceBounds, SelfCollisionMethod, SolverSettings};
 use bevy_drape::collide::plugin::ClothCollider;
@@ -26,6 +26,7 @@ use bevy_drape::skeleton::plugin::{
     BoneColliders, ClipPlayer, IkGoal, IkTarget, InverseKinematics, Skeleton,
 };
 
+mod measure;
 mod motion;
 mod run;
 
@@ -85,6 +86,9 @@ pub struct PonchoScene {
     /// How many of the crowd's characters (the last ones in the row) stand still
     /// ([`CharacterMotion::Stand`], no wave) instead of making their motion. Default: `0`.
     pub standing: u32,
+    /// Garments on each character: `1`, the poncho; `2`, a [`Shawl`] under it, the two
+    /// stepped as layers of one solve ([`ClothLayers`]). Default: `1`.
+    pub layers: u32,
     /// When the poncho counts as diverged. Default: strain 200%, speed 500 m/s. Walking, its
     /// collar can snag on the neck and stretch one edge past 100% for a few steps (the
     /// largest seen in 100,000 steps of walking was 134%, after which it let go); a method
@@ -110,6 +114,7 @@ impl Default for PonchoScene {
             speed_limit: ClothSettings::default().speed_limit,
             characters: 1,
             standing: 0,
+            layers: 1,
             divergence: DivergenceBounds {
                 max_strain: 2.0,
                 ..DivergenceBounds::default()
@@ -122,6 +127,24 @@ impl Default for PonchoScene {
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
 #[reflect(Component)]
 pub struct Poncho;
+
+/// Marks the shawl, the inner layer under the poncho ([`PonchoScene::layers`] = 2).
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct Shawl;
+
+/// The shawl's pattern: a 0.8 m square of 11 x 11 vertices (8 cm apart, as the coarse
+/// poncho's) with the poncho's neck hole. It covers the shoulders, the upper arms and the
+/// chest, under the poncho.
+pub const SHAWL: PonchoDesc = PonchoDesc {
+    size: 0.8,
+    vertices: 11,
+    neck_radius: 0.1,
+};
+
+/// How far above the shawl the poncho starts, metres: farther apart than the gap the layers
+/// are kept at (3 cm for these patterns), so that each starts on its side.
+pub const LAYER_GAP: f32 = 0.05;
 
 /// Marks the character.
 #[derive(Component, Clone, Copy, Debug, Default, Reflect)]
@@ -143,7 +166,7 @@ impl Plugin for PonchoScenePlugin {
         if !app.is_plugin_added::<CharacterMotionPlugin>() {
             app.add_plugins(CharacterMotionPlugin);
         }
-        app.register_type::<(PonchoScene, Poncho)>()
+        app.register_type::<(PonchoScene, Poncho, Shawl)>()
             .init_resource::<PonchoScene>()
             .add_systems(Startup, spawn_poncho_scene);
     }
@@ -256,7 +279,8 @@ fn spawn_poncho_scene(
         PonchoSource::Pattern(desc) => meshes.add(poncho_mesh(desc)),
     };
     let mesh = mesh_of(&scene.source);
-    let simulated = scene.simulated.as_ref().map(mesh_of);
+    let simulated = scene.simulated.as_ref().map(&mut mesh_of);
+    let shawl_mesh = mesh_of(&PonchoSource::Pattern(SHAWL));
     commands.spawn((
         Name::new("ground"),
         ClothCollider::plane().with_friction(0.6),
@@ -300,23 +324,42 @@ fn spawn_poncho_scene(
                 .entity(character)
                 .insert(ClipPlayer::new(assets.load("clips/walk.clip.ron")));
         }
+        let settings = ClothSettings {
+            density: scene.density,
+            solver: scene.solver,
+            inertia: scene.inertia,
+            speed_limit: scene.speed_limit,
+            divergence: scene.divergence,
+            ..default()
+        };
+        let layered = scene.layers >= 2;
+        let lift = if layered { LAYER_GAP } else { 0.0 };
         let mut poncho = commands.spawn((
             Name::new(numbered("poncho", i)),
             Poncho,
             Mesh3d(mesh.clone()),
             Cloth::worn_by(character),
-            ClothSettings {
-                density: scene.density,
-                solver: scene.solver,
-                inertia: scene.inertia,
-                speed_limit: scene.speed_limit,
-                divergence: scene.divergence,
-                ..default()
-            },
-            Transform::from_translation(at + Vec3::Y * scene.start_height),
+            settings,
+            Transform::from_translation(at + Vec3::Y * (scene.start_height + lift)),
         ));
         if let Some(simulated) = &simulated {
             poncho.insert(ClothSimulationMesh(simulated.clone()));
+        }
+        let poncho = poncho.id();
+        if layered {
+            let shawl = commands
+                .spawn((
+                    Name::new(numbered("shawl", i)),
+                    Shawl,
+                    Mesh3d(shawl_mesh.clone()),
+                    Cloth::worn_by(character),
+                    settings,
+                    Transform::from_translation(at + Vec3::Y * scene.start_height),
+                ))
+                .id();
+            commands
+                .entity(character)
+                .insert(ClothLayers(vec![shawl, poncho]));
         }
         if scene.wave && motion != CharacterMotion::Stand {
             commands.entity(character).insert(Waving);

@@ -8,7 +8,10 @@ use bevy_drape::cloth::plugin::ClothBuildError;
 use bevy_drape::schedule::DrapeTimings;
 use bevy_drape::skeleton::plugin::{ClipAsset, ClipPlayer};
 
-use super::{Character, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin, SETTLE_SECONDS};
+use super::measure::measure;
+use super::{Character, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin};
+#[cfg(doc)]
+use super::SETTLE_SECONDS;
 
 /// The figures of one headless run of the scene (scene S3 of `docs/benchmarks.md`). Strain,
 /// centroid and energy figures are taken over the steps after the first
@@ -75,7 +78,18 @@ pub struct PonchoRun {
     /// steps ([`bevy_drape::cloth::count_self_crossings`]), every poncho over the whole run.
     pub crossings: usize,
     /// Each poncho's positions after the last step, for the crossings.
-    previous_positions: Vec<(Entity, Vec<bevy::math::Vec3A>)>,
+    pub(super) previous_positions: Vec<(Entity, Vec<bevy::math::Vec3A>)>,
+    /// Garments per character ([`PonchoScene::layers`]).
+    pub layers: u32,
+    /// How many times a particle of a shawl went through a triangle of the poncho over it, or
+    /// the other way, between two steps ([`bevy_drape::cloth::count_crossings_between`]), every
+    /// character over the whole run (with [`PonchoScene::layers`] = 2).
+    pub layer_crossings: usize,
+    /// The largest structural strain of any shawl in any step after the first second.
+    pub shawl_strain_max_after_first_second: f32,
+    /// Each shawl's and its poncho's positions after the last step, for the crossings
+    /// between them.
+    pub(super) previous_layers: Vec<(Entity, [Vec<bevy::math::Vec3A>; 2])>,
 }
 
 /// The `s3` line of the `scenes` runner (field order is the line's).
@@ -104,6 +118,9 @@ struct S3Line {
     ms_write_back: f64,
     deepest_penetration: f32,
     crossings: usize,
+    layers: u32,
+    layer_crossings: usize,
+    shawl_strain_max_after_first_second: f32,
     step_max_strain_median: f32,
     step_max_strain_max: f32,
     worst_step: usize,
@@ -160,6 +177,9 @@ impl PonchoRun {
             ms_write_back: crate::scenes::median(&self.write_back_ms),
             deepest_penetration: self.deepest_penetration,
             crossings: self.crossings,
+            layers: self.layers.max(1),
+            layer_crossings: self.layer_crossings,
+            shawl_strain_max_after_first_second: self.shawl_strain_max_after_first_second,
             step_max_strain_median: self.step_strain_median(),
             step_max_strain_max: self.step_strain_max(),
             worst_step: self.worst_step(),
@@ -313,10 +333,10 @@ pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
     use bevy::time::TimeUpdateStrategy;
     use std::time::{Duration, Instant};
 
-    let motion = app
+    let (motion, layers) = app
         .world()
         .get_resource::<PonchoScene>()
-        .map_or_else(default, |scene| scene.motion);
+        .map_or((default(), 1), |scene| (scene.motion, scene.layers));
     // Time stands still until the poncho is built and the clip is playing; the files load on
     // the asset server's threads meanwhile.
     app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
@@ -339,6 +359,7 @@ pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
     )));
     let mut run = PonchoRun {
         motion,
+        layers,
         finite: true,
         strain_histogram: vec![0; STRAIN_BINS],
         ..default()
@@ -421,136 +442,4 @@ fn character_position(app: &mut App) -> Option<Vec3> {
         .iter(world)
         .next()
         .map(|t| t.translation)
-}
-
-/// Adds to [`PonchoRun::crossings`] those of `poncho` (simulated by `sim`) since the last step.
-fn count_crossings(
-    run: &mut PonchoRun,
-    poncho: Entity,
-    sim: &bevy_drape::cloth::ClothSolver,
-    thickness: f32,
-) {
-    use bevy_drape::cloth::{TwoPoses, count_self_crossings};
-    let x = &sim.state().positions;
-    let k = match run
-        .previous_positions
-        .iter()
-        .position(|(e, _)| *e == poncho)
-    {
-        Some(k) => k,
-        None => {
-            run.previous_positions.push((poncho, x.clone()));
-            return;
-        }
-    };
-    let before = &mut run.previous_positions[k].1;
-    if before.len() == x.len() {
-        run.crossings += count_self_crossings(
-            TwoPoses { before, after: x },
-            &sim.model().triangles,
-            thickness,
-        );
-    }
-    before.clone_from(x);
-}
-
-fn measure(app: &mut App, run: &mut PonchoRun) {
-    use bevy_drape::collide::SolverShape;
-    let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
-    let world = app.world_mut();
-    run.divergences += world
-        .resource_mut::<Messages<bevy_drape::cloth::plugin::ClothDiverged>>()
-        .drain()
-        .count() as u32;
-    // Every poncho is measured against the chest of the character wearing it.
-    let mut transforms =
-        bevy::ecs::system::SystemState::<bevy::transform::helper::TransformHelper>::new(world);
-    let wearers: Vec<(Entity, Option<Entity>)> = world
-        .query_filtered::<(Entity, &bevy_drape::cloth::plugin::Cloth), With<Poncho>>()
-        .iter(world)
-        .map(|(poncho, cloth)| (poncho, cloth.follow))
-        .collect();
-    let chests: Vec<(Entity, Option<Vec3>)> = wearers
-        .iter()
-        .map(|&(poncho, wearer)| {
-            let chest = (|| {
-                let bone = world
-                    .get::<bevy_drape::skeleton::plugin::SkeletonBones>(wearer?)?
-                    .get("chest")?;
-                let helper = transforms.get(world).ok()?;
-                helper
-                    .compute_global_transform(bone)
-                    .ok()
-                    .map(|g| g.translation())
-            })();
-            (poncho, chest)
-        })
-        .collect();
-    let thickness = world
-        .get_resource::<PonchoScene>()
-        .map_or(0.0, |scene| scene.solver.thickness);
-    let mut ponchos =
-        world.query_filtered::<&bevy_drape::cloth::plugin::ClothSimulation, With<Poncho>>();
-    run.asleep = ponchos.iter(world).filter(|s| s.is_asleep()).count();
-    for (poncho, chest) in chests {
-        let Ok(simulation) = ponchos.get(world, poncho) else {
-            continue;
-        };
-        let sim = simulation.solver();
-        let x = &sim.state().positions;
-        run.particles = x.len();
-        count_crossings(run, poncho, sim, thickness);
-        run.finite &= sim.is_finite();
-        run.frozen |= simulation.is_frozen();
-
-        for c in sim.colliders() {
-            if matches!(c.shape, SolverShape::Plane) {
-                continue;
-            }
-            for &p in x {
-                if let Some(d) = c.signed_distance(p, 0.0) {
-                    run.deepest_penetration = run.deepest_penetration.max(-d);
-                }
-            }
-        }
-        if run.steps > 60 {
-            run.strain_max_after_first_second =
-                run.strain_max_after_first_second.max(sim.strain().max);
-        }
-        if !settled {
-            continue;
-        }
-        let (mut stretch, mut compression) = (0.0f32, 0.0f32);
-        for extension in sim.edge_extensions() {
-            stretch = stretch.max(extension);
-            compression = compression.max(-extension);
-            let bin = ((extension.abs() / STRAIN_BIN) as usize).min(run.strain_histogram.len() - 1);
-            run.strain_histogram[bin] += 1;
-        }
-        run.step_max_strain.push(stretch.max(compression));
-        run.step_max_stretch.push(stretch);
-        run.step_max_compression.push(compression);
-        run.max_kinetic_energy = run.max_kinetic_energy.max(sim.kinetic_energy());
-        let rest = &sim.model().rest_positions;
-        let half_side = rest
-            .iter()
-            .fold(0.0f32, |m, p| m.max(p.x.abs()).max(p.z.abs()));
-        let (sum, count) = rest
-            .iter()
-            .zip(x)
-            .filter(|(r, _)| r.x.abs().max(r.z.abs()) > half_side - 1e-3)
-            .fold((0.0, 0), |(sum, count), (_, p)| (sum + p.y, count + 1));
-        if count > 0 {
-            run.hem_heights.push(sum / count as f32);
-        }
-        if let Some(chest) = chest
-            && !x.is_empty()
-        {
-            let centroid: Vec3 =
-                Vec3::from(x.iter().copied().sum::<bevy::math::Vec3A>()) / x.len() as f32;
-            let offset = (centroid - chest).with_y(0.0).length();
-            run.max_centroid_offset = run.max_centroid_offset.max(offset);
-            run.centroid_offsets.push(offset);
-        }
-    }
 }

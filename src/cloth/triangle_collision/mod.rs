@@ -247,17 +247,23 @@ impl TriangleSelfCollision {
         for (index, pair) in self.candidates.iter_mut().enumerate() {
             let q = pair.particle as usize;
             let [a, b, c] = self.triangles[pair.triangle as usize].map(|i| x_prev[i as usize]);
-            let Some((bary, _, height)) = plane_coordinates(x_prev[q], a, b, c) else {
+            let Some(plane) = Plane::new(a, b, c) else {
                 continue;
             };
-            if bary.min_element() < -OVER_SLACK && height != 0.0 {
-                pair.side = height.signum();
-            }
+            let height = plane.height(x_prev[q]);
             // The substep's share of the two's travel, twice (the particle and the corners
             // closing in), and half the thickness for the constraints' own moves.
             let corners = self.triangles[pair.triangle as usize].map(|i| self.travel[i as usize]);
             let travel = self.travel[q] + corners[0].max(corners[1]).max(corners[2]);
             let reach = 1.5 * h + 2.0 * share * travel;
+            if pair.side * height >= reach {
+                // On its side and out of reach: its side is the one it is on already.
+                continue;
+            }
+            let bary = plane.barycentric(x_prev[q], height);
+            if bary.min_element() < -OVER_SLACK && height != 0.0 {
+                pair.side = height.signum();
+            }
             if pair.side * height < reach && bary.min_element() > -1.0 {
                 self.near.push(index as u32);
             }
@@ -285,13 +291,19 @@ impl TriangleSelfCollision {
             let q = pair.particle as usize;
             let corners = self.triangles[pair.triangle as usize].map(|i| i as usize);
             let [a, b, c] = corners;
-            let Some((bary, normal, height)) = plane_coordinates(x[q], x[a], x[b], x[c]) else {
+            let Some(plane) = Plane::new(x[a], x[b], x[c]) else {
                 continue;
             };
+            let height = plane.height(x[q]);
             let mut distance = pair.side * height;
-            if distance >= h || bary.min_element() < -OVER_SLACK {
+            if distance >= h {
                 continue;
             }
+            let bary = plane.barycentric(x[q], height);
+            if bary.min_element() < -OVER_SLACK {
+                continue;
+            }
+            let normal = plane.normal;
             if distance < 0.0 && !went_through(pair.side, [q, a, b, c].map(|i| (x_prev[i], x[i]))) {
                 // Round the triangle's edge within the substep: held on the side it is on.
                 pair.side = -pair.side;
@@ -329,6 +341,51 @@ impl TriangleSelfCollision {
             }
         }
         held
+    }
+}
+
+/// A triangle's plane, for a particle's height over it and, only when needed, where over
+/// the triangle it is (`plane_coordinates` in two parts: most pairs are out of reach by their
+/// height alone).
+struct Plane {
+    a: Vec3A,
+    ab: Vec3A,
+    ac: Vec3A,
+    cross: Vec3A,
+    area_sq: f32,
+    normal: Vec3A,
+}
+
+impl Plane {
+    /// The plane of `a`, `b`, `c`, if they span one.
+    #[inline(always)]
+    fn new(a: Vec3A, b: Vec3A, c: Vec3A) -> Option<Self> {
+        let (ab, ac) = (b - a, c - a);
+        let cross = ab.cross(ac);
+        let area_sq = cross.length_squared();
+        (area_sq >= 1e-20).then(|| Self {
+            a,
+            ab,
+            ac,
+            cross,
+            area_sq,
+            normal: cross / area_sq.sqrt(),
+        })
+    }
+
+    /// The signed height of `q` over the plane, along the normal.
+    #[inline(always)]
+    fn height(&self, q: Vec3A) -> f32 {
+        (q - self.a).dot(self.normal)
+    }
+
+    /// The barycentric coordinates of `q` (at `height`) projected onto the plane.
+    #[inline(always)]
+    fn barycentric(&self, q: Vec3A, height: f32) -> Vec3A {
+        let in_plane = q - self.a - self.normal * height;
+        let u = in_plane.cross(self.ac).dot(self.cross) / self.area_sq;
+        let v = self.ab.cross(in_plane).dot(self.cross) / self.area_sq;
+        Vec3A::new(1.0 - u - v, u, v)
     }
 }
 
@@ -402,265 +459,4 @@ impl TriangleFrame {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::cloth::crossings::{TwoPoses, count_self_crossings};
-    use crate::cloth::model::{ClothModel, GridDesc};
-    use crate::rng::Rng;
-    use bevy::math::Vec3;
-
-    const H: f32 = 0.005;
-
-    /// Every (particle, triangle) pair within the search's distance, by brute force.
-    fn brute_force(tc: &TriangleSelfCollision, x: &[Vec3A]) -> Vec<(u32, u32)> {
-        let mut out = Vec::new();
-        for q in 0..x.len() {
-            for (t, &[a, b, c]) in tc.triangles.iter().enumerate() {
-                if [a, b, c].contains(&(q as u32)) {
-                    continue;
-                }
-                let [pa, pb, pc] = [a, b, c].map(|i| x[i as usize]);
-                let Some(frame) = TriangleFrame::new(pa, pb, pc) else {
-                    continue;
-                };
-                let corner_travel = [a, b, c]
-                    .map(|i| tc.travel[i as usize])
-                    .into_iter()
-                    .fold(0.0, f32::max);
-                if frame.within(x[q], tc.thickness + corner_travel + tc.travel[q]) {
-                    out.push((q as u32, t as u32));
-                }
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn the_grid_finds_exactly_the_pairs_a_brute_force_search_finds() {
-        let model =
-            ClothModel::grid(&GridDesc::square(1.0, 11, Vec3::new(-0.5, 0.0, -0.5)), 0.1).unwrap();
-        let mut rng = Rng(5);
-        for spread in [0.05f32, 0.3, 3.0] {
-            let mut tc =
-                TriangleSelfCollision::new(&model.rest_positions, &model.triangles).unwrap();
-            // A crumpled sheet: random positions near a wavy fold, random velocities.
-            let x: Vec<Vec3A> = model
-                .rest_positions
-                .iter()
-                .map(|p| {
-                    let fold = (p.x * 7.0).sin() * 0.05 + rng.range(-spread, spread) * 0.1;
-                    Vec3A::new(p.x.abs() * 0.3, fold, p.z + rng.range(-0.01, 0.01))
-                })
-                .collect();
-            let v: Vec<Vec3A> = (0..x.len())
-                .map(|_| Vec3A::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0))
-                .collect();
-            tc.find_pairs(&x, &v, 1.0 / 60.0, 9.81, H);
-            let mut found: Vec<(u32, u32)> = tc
-                .candidates()
-                .iter()
-                .map(|p| (p.particle, p.triangle))
-                .collect();
-            found.sort_unstable();
-            let expected = brute_force(&tc, &x);
-            assert!(
-                expected.len() > 20,
-                "spread {spread}: the shape has overlaps"
-            );
-            assert_eq!(found, expected, "spread {spread}");
-        }
-    }
-
-    /// One step of `dt` in `[substeps, iterations]` of particles in free flight held by `tc`
-    /// alone (its candidates found already), velocities from positions.
-    fn free_flight(
-        tc: &mut TriangleSelfCollision,
-        (x, v, w): (&mut [Vec3A], &mut [Vec3A], &[f32]),
-        dt: f32,
-        [substeps, iterations]: [u32; 2],
-        friction: f32,
-    ) {
-        let h = dt / substeps as f32;
-        for _ in 0..substeps {
-            let x_prev = x.to_vec();
-            for (p, v) in x.iter_mut().zip(&*v) {
-                *p += *v * h;
-            }
-            tc.begin_substep(&x_prev, substeps);
-            for _ in 0..iterations {
-                tc.project(x, &x_prev, w, friction, None);
-            }
-            for ((v, p), p0) in v.iter_mut().zip(&*x).zip(&x_prev) {
-                *v = (*p - *p0) / h;
-            }
-        }
-    }
-
-    /// One triangle 2 cm wide in the plane y = 0 (corners 0-2, inverse mass `w_tri`), one
-    /// particle (3)
-    /// moving down through it at `speed`.
-    fn falling_particle(speed: f32, w_tri: f32, steps: u32) -> (Vec<Vec3A>, Vec3A, usize, f32) {
-        let mut x = vec![
-            Vec3A::new(0.0, 0.0, 0.0),
-            Vec3A::new(0.0, 0.0, 0.02),
-            Vec3A::new(0.02, 0.0, 0.0),
-            Vec3A::new(0.005, 0.02, 0.005),
-        ];
-        let w = vec![w_tri, w_tri, w_tri, 1.0];
-        let mut v = vec![Vec3A::ZERO; 4];
-        v[3].y = -speed;
-        let rest: Vec<Vec3> = x.iter().map(|&p| p.into()).collect();
-        let mut tc = TriangleSelfCollision::new(&rest, &[[0, 1, 2]]).unwrap();
-        let dt = 1.0 / 60.0;
-        let substeps = 4;
-        let momentum_before: Vec3A = v.iter().zip(&w).map(|(v, w)| *v / *w).sum();
-        let mut crossings = 0;
-        for _ in 0..steps {
-            tc.find_pairs(&x, &v, dt, 0.0, H);
-            let start = x.clone();
-            free_flight(&mut tc, (&mut x, &mut v, &w), dt, [substeps, 2], 0.0);
-            crossings += count_self_crossings(
-                TwoPoses {
-                    before: &start,
-                    after: &x,
-                },
-                &[[0, 1, 2]],
-                H,
-            );
-        }
-        let momentum_after: Vec3A = v.iter().zip(&w).map(|(v, w)| *v / *w).sum();
-        (x, momentum_after - momentum_before, crossings, tc.thickness)
-    }
-
-    #[test]
-    fn a_fast_particle_stops_on_its_side_of_a_triangle_with_momentum_kept() {
-        // From 1 m/s to 30 m/s: 50 cm a step, fifteen times the gap in one substep.
-        for speed in [1.0f32, 5.0, 30.0] {
-            for w_tri in [0.0f32, 1.0, 4.0] {
-                let (x, momentum, crossings, gap) = falling_particle(speed, w_tri, 20);
-                let plane = x[0].y;
-                assert_eq!(crossings, 0, "speed {speed}, w {w_tri}");
-                assert!(
-                    x[3].y - plane > 0.9 * gap,
-                    "speed {speed}, w {w_tri}: {} above the plane",
-                    x[3].y - plane
-                );
-                if w_tri > 0.0 {
-                    assert!(momentum.length() < 1e-3 * speed, "momentum {momentum}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn a_particle_going_round_an_edge_takes_the_new_side_one_pushed_through_goes_back() {
-        let tri = [
-            Vec3A::new(0.0, 0.0, 0.0),
-            Vec3A::new(0.0, 0.0, 0.02),
-            Vec3A::new(0.02, 0.0, 0.0),
-        ];
-        let rest: Vec<Vec3> = tri.iter().map(|&p| p.into()).collect::<Vec<_>>();
-        let rest = [rest[0], rest[1], rest[2], Vec3::new(0.006, 0.003, 0.006)];
-        let w = [0.0, 0.0, 0.0, 1.0];
-        let held_at = |start: Vec3A, middle: Vec3A, end: Vec3A| {
-            let mut tc = TriangleSelfCollision::new(&rest, &[[0, 1, 2]]).unwrap();
-            let mut x = [tri[0], tri[1], tri[2], start];
-            tc.find_pairs(&x, &[Vec3A::ZERO; 4], 1.0 / 60.0, 0.0, H);
-            // Two substeps: start -> middle -> end.
-            for target in [middle, end] {
-                let x_prev = x;
-                x[3] = target;
-                tc.begin_substep(&x_prev, 2);
-                tc.project(&mut x, &x_prev, &w, 0.0, None);
-            }
-            (x[3], tc.thickness)
-        };
-        // Beside the triangle just under its plane, then round the edge over it from below:
-        // kept below.
-        let (end, gap) = held_at(
-            Vec3A::new(-0.004, 0.002, 0.006),
-            Vec3A::new(-0.003, -0.002, 0.006),
-            Vec3A::new(0.004, -0.002, 0.006),
-        );
-        assert!(end.y <= -0.9 * gap, "below: {end}");
-        // Over the triangle just above it, pushed 2 mm through: back above.
-        let (end, gap) = held_at(
-            Vec3A::new(0.006, 0.003, 0.006),
-            Vec3A::new(0.006, 0.001, 0.006),
-            Vec3A::new(0.006, -0.002, 0.006),
-        );
-        assert!(end.y >= 0.9 * gap, "above: {end}");
-    }
-
-    #[test]
-    fn random_sheets_pressed_together_stay_apart_and_keep_momentum() {
-        // Two random sheets of one cloth, the upper one smaller and turned (its vertices over
-        // the lower one's triangles anywhere, its rim inside the lower one's), pressed together
-        // at random speeds with random masses: no particle crosses, the momentum is kept.
-        let mut rng = Rng(23);
-        for round in 0..6 {
-            let n = 4 + round as u32;
-            let gap = rng.range(0.003, 0.02);
-            let size = rng.range(0.1, 0.4);
-            let lower = GridDesc::square(size, n, Vec3::ZERO).mesh();
-            let inset = rng.range(0.1, 0.2) * size;
-            let mut upper = GridDesc::square(size - 3.0 * inset, n + 1, Vec3::ZERO);
-            upper.orientation = bevy::math::Quat::from_rotation_y(rng.range(-0.3, 0.3));
-            upper.origin = Vec3::new(1.5 * inset, gap, 1.5 * inset);
-            let upper = upper.mesh();
-            let count = lower.positions.len();
-            let rest: Vec<Vec3> = lower
-                .positions
-                .iter()
-                .chain(&upper.positions)
-                .copied()
-                .collect();
-            let triangles: Vec<[u32; 3]> = lower
-                .indices
-                .chunks(3)
-                .map(|t| [t[0], t[1], t[2]])
-                .chain(
-                    upper
-                        .indices
-                        .chunks(3)
-                        .map(|t| [t[0], t[1], t[2]].map(|i| i + count as u32)),
-                )
-                .collect();
-            let mut tc = TriangleSelfCollision::new(&rest, &triangles).unwrap();
-            let mut x: Vec<Vec3A> = rest
-                .iter()
-                .map(|&p| Vec3A::from(p) + Vec3A::new(rng.range(-1.0, 1.0), 0.0, 0.0) * 0.002)
-                .collect();
-            let w: Vec<f32> = (0..x.len()).map(|_| rng.range(0.5, 2.0)).collect();
-            // Each particle moves at most 1.5 edges a step: the search looks 2 edges ahead.
-            let speed = rng.range(0.2, 1.5) * size / (n - 1) as f32 * 60.0;
-            let mut v: Vec<Vec3A> = (0..x.len())
-                .map(|i| Vec3A::new(0.0, if i < count { speed } else { -speed }, 0.0))
-                .collect();
-            let momentum = |v: &[Vec3A]| -> Vec3A { v.iter().zip(&w).map(|(v, w)| *v / *w).sum() };
-            let before = momentum(&v);
-            let (dt, substeps) = (1.0 / 60.0, 4);
-            let mut crossings = 0;
-            for _ in 0..10 {
-                tc.find_pairs(&x, &v, dt, 0.0, H);
-                let start = x.clone();
-                free_flight(&mut tc, (&mut x, &mut v, &w), dt, [substeps, 4], 0.3);
-                crossings += count_self_crossings(
-                    TwoPoses {
-                        before: &start,
-                        after: &x,
-                    },
-                    &triangles,
-                    H,
-                );
-            }
-            assert_eq!(crossings, 0, "round {round}: gap {gap}, speed {speed}");
-            let drift = (momentum(&v) - before).length();
-            assert!(
-                drift < 1e-3 * speed * x.len() as f32,
-                "round {round}: {drift}"
-            );
-            assert!(x.iter().all(|p| p.is_finite()));
-        }
-    }
-}
+mod tests;
