@@ -92,6 +92,8 @@ pub struct TriangleSelfCollision {
     /// The candidates that can come within the thickness in the current substep (indices
     /// into `candidates`).
     near: Vec<u32>,
+    /// Each triangle's plane at the start of the current substep (`None`: degenerate).
+    planes: Vec<Option<Plane>>,
 }
 
 impl TriangleSelfCollision {
@@ -129,6 +131,7 @@ impl TriangleSelfCollision {
             candidates: Vec::with_capacity(4 * n),
             previous: Vec::with_capacity(4 * n),
             near: Vec::with_capacity(n),
+            planes: Vec::new(),
         })
     }
 
@@ -244,10 +247,15 @@ impl TriangleSelfCollision {
         let share = 1.0 / substeps.max(1) as f32;
         let h = self.thickness;
         self.near.clear();
+        // Each triangle's plane once: a triangle is in several pairs.
+        self.planes.clear();
+        self.planes.extend(self.triangles.iter().map(|t| {
+            let [a, b, c] = t.map(|i| x_prev.get(i as usize).copied().unwrap_or(Vec3A::NAN));
+            Plane::new(a, b, c)
+        }));
         for (index, pair) in self.candidates.iter_mut().enumerate() {
             let q = pair.particle as usize;
-            let [a, b, c] = self.triangles[pair.triangle as usize].map(|i| x_prev[i as usize]);
-            let Some(plane) = Plane::new(a, b, c) else {
+            let Some(plane) = &self.planes[pair.triangle as usize] else {
                 continue;
             };
             let height = plane.height(x_prev[q]);
@@ -264,7 +272,10 @@ impl TriangleSelfCollision {
             if bary.min_element() < -OVER_SLACK && height != 0.0 {
                 pair.side = height.signum();
             }
-            if pair.side * height < reach && bary.min_element() > -1.0 {
+            // Over the triangle, or outside its edges by no more than it can come in this
+            // substep (`-b_k` times the corner's altitude, at least `|cross| / longest`).
+            let outside = (2.0 * share * travel + 0.5 * h) * self.longest_edge / plane.length;
+            if pair.side * height < reach && bary.min_element() > -outside.max(OVER_SLACK) {
                 self.near.push(index as u32);
             }
         }
@@ -347,12 +358,15 @@ impl TriangleSelfCollision {
 /// A triangle's plane, for a particle's height over it and, only when needed, where over
 /// the triangle it is (`plane_coordinates` in two parts: most pairs are out of reach by their
 /// height alone).
+#[derive(Clone, Copy, Debug)]
 struct Plane {
     a: Vec3A,
     ab: Vec3A,
     ac: Vec3A,
     cross: Vec3A,
     area_sq: f32,
+    /// `|cross|`, twice the area.
+    length: f32,
     normal: Vec3A,
 }
 
@@ -363,13 +377,17 @@ impl Plane {
         let (ab, ac) = (b - a, c - a);
         let cross = ab.cross(ac);
         let area_sq = cross.length_squared();
-        (area_sq >= 1e-20).then(|| Self {
-            a,
-            ab,
-            ac,
-            cross,
-            area_sq,
-            normal: cross / area_sq.sqrt(),
+        (area_sq >= 1e-20).then(|| {
+            let length = area_sq.sqrt();
+            Self {
+                a,
+                ab,
+                ac,
+                cross,
+                area_sq,
+                length,
+                normal: cross / length,
+            }
         })
     }
 

@@ -8,10 +8,10 @@ use bevy_drape::cloth::plugin::ClothBuildError;
 use bevy_drape::schedule::DrapeTimings;
 use bevy_drape::skeleton::plugin::{ClipAsset, ClipPlayer};
 
-use super::measure::measure;
-use super::{Character, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin};
 #[cfg(doc)]
 use super::SETTLE_SECONDS;
+use super::measure::measure;
+use super::{Character, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin};
 
 /// The figures of one headless run of the scene (scene S3 of `docs/benchmarks.md`). Strain,
 /// centroid and energy figures are taken over the steps after the first
