@@ -18,7 +18,7 @@ use bevy_drape::prelude::*;
 use common::{ExamplePlugin, cloth_material, spawn_stage};
 
 /// Vertices per side of every sheet.
-const N: u32 = 24;
+const N: u32 = 32;
 /// The ball's radius and where it rests.
 const BALL_RADIUS: f32 = 0.3;
 const BALL_AT: Vec3 = Vec3::new(0.8, BALL_RADIUS, 0.0);

@@ -14,7 +14,8 @@
 //! adapter it says so, runs the scene headless and prints its figures.
 //!
 //! 1 to 5 switch the motion (in place, walk, jog, teleport, the tour), W the wave, B a gusting
-//! breeze, S cycles the self-collision method, R resets the poncho, P pauses, C cycles the debug colours; drag the
+//! breeze, S cycles the self-collision method, L puts a shawl under the poncho (the two
+//! stepped as layers) or takes it away, R resets the poncho, P pauses, C cycles the debug colours; drag the
 //! poncho with the left mouse button, orbit with the right one, scroll to zoom.
 
 mod common;
@@ -32,13 +33,17 @@ use common::{
     spawn_stage,
 };
 use drape_scenes::poncho::{
-    Character, CharacterController, CharacterMotion, CharacterMotionPlugin, PonchoScene, WRIST,
-    Waving, run_headless,
+    Character, CharacterController, CharacterMotion, CharacterMotionPlugin, LAYER_GAP, PonchoScene,
+    SHAWL, WRIST, Waving, poncho_mesh, run_headless,
 };
 
 /// Marks the poncho.
 #[derive(Component)]
 struct Poncho;
+
+/// Marks the shawl under the poncho (L).
+#[derive(Component)]
+struct Shawl;
 
 /// The wind the B key turns on and off: 3 m/s from the character's left, gusting.
 const BREEZE: Wind = Wind {
@@ -84,6 +89,7 @@ fn main() {
         (
             dress_humanoids,
             keys,
+            toggle_shawl,
             label,
             follow_with_camera::<Character>,
         ),
@@ -147,30 +153,101 @@ fn spawn_character_and_poncho(
             Transform::default(),
         ))
         .id();
-    commands.spawn((
+    commands.spawn(poncho(&mut materials, &assets, character, 1.5));
+}
+
+/// The poncho worn by `character`, flat at `height` above it: drawn with 41 x 41 vertices,
+/// simulated on 17 x 17.
+fn poncho(
+    materials: &mut Assets<StandardMaterial>,
+    assets: &AssetServer,
+    character: Entity,
+    height: f32,
+) -> impl Bundle {
+    (
         Name::new("poncho"),
         Poncho,
         Mesh3d(assets.load("meshes/poncho.obj")),
         ClothSimulationMesh(assets.load("meshes/poncho_coarse.obj")),
-        MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.75, 0.25, 0.2))),
+        MeshMaterial3d(cloth_material(materials, Color::srgb(0.75, 0.25, 0.2))),
         Cloth::worn_by(character),
-        ClothSettings {
-            density: 0.25,
-            // The scene S3 measures (`scenes -- s3`), in air: B turns a breeze on.
-            solver: SolverSettings {
-                self_collision: SelfCollisionMethod::Particles,
-                shear_compliance: 0.1,
-                air: Some(AirSettings::default()),
-                ..default()
-            },
-            divergence: DivergenceBounds {
-                max_strain: 2.0,
-                ..default()
-            },
+        poncho_settings(),
+        Transform::from_xyz(0.0, height, 0.0),
+    )
+}
+
+/// The poncho's settings: the scene S3 measures (`scenes -- s3`), in air (B turns a breeze
+/// on). The shawl under it (L) has the same.
+fn poncho_settings() -> ClothSettings {
+    ClothSettings {
+        density: 0.25,
+        solver: SolverSettings {
+            self_collision: SelfCollisionMethod::Particles,
+            shear_compliance: 0.1,
+            air: Some(AirSettings::default()),
             ..default()
         },
-        Transform::from_xyz(0.0, 1.5, 0.0),
-    ));
+        divergence: DivergenceBounds {
+            max_strain: 2.0,
+            ..default()
+        },
+        ..default()
+    }
+}
+
+/// The poncho and the shawl.
+type Garments<'w, 's> = Query<'w, 's, Entity, Or<(With<Poncho>, With<Shawl>)>>;
+
+/// L: a shawl under the poncho, or none. Both garments are dropped again from above the
+/// character, the shawl first, and stepped as layers of one solve (`ClothLayers`).
+fn toggle_shawl(
+    input: Res<ButtonInput<KeyCode>>,
+    mut commands: Commands,
+    characters: Query<(Entity, &Transform, Has<ClothLayers>), With<Character>>,
+    garments: Garments,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+    assets: Res<AssetServer>,
+) {
+    if !input.just_pressed(KeyCode::KeyL) {
+        return;
+    }
+    let Ok((character, transform, layered)) = characters.single() else {
+        return;
+    };
+    for garment in &garments {
+        commands.entity(garment).despawn();
+    }
+    // Above the character, turned as it is (its entity is what the garments follow).
+    let place = |height: f32| {
+        Transform::from_translation(transform.translation + Vec3::Y * height)
+            .with_rotation(transform.rotation)
+    };
+    if layered {
+        commands.entity(character).remove::<ClothLayers>();
+        commands
+            .spawn(poncho(&mut materials, &assets, character, 0.0))
+            .insert(place(1.5));
+        return;
+    }
+    let shawl = commands
+        .spawn((
+            Name::new("shawl"),
+            Shawl,
+            Mesh3d(meshes.add(poncho_mesh(&SHAWL))),
+            MeshMaterial3d(cloth_material(&mut materials, Color::srgb(0.85, 0.75, 0.3))),
+            Cloth::worn_by(character),
+            poncho_settings(),
+            place(1.5),
+        ))
+        .id();
+    let outer = commands
+        .spawn(poncho(&mut materials, &assets, character, 0.0))
+        .insert(place(1.5 + LAYER_GAP))
+        .id();
+    commands
+        .entity(character)
+        .insert(ClothLayers(vec![shawl, outer]));
 }
 
 #[derive(Component)]
@@ -255,12 +332,14 @@ fn keys(
 fn label(
     timings: Res<DrapeTimings>,
     ponchos: Query<(&ClothSimulation, &ClothSettings), With<Poncho>>,
-    controllers: Query<(&CharacterController, Has<Waving>)>,
+    controllers: Query<(&CharacterController, Has<Waving>, Has<ClothLayers>)>,
     mut labels: Query<&mut Text, With<Label>>,
 ) {
-    let (motion, speed, waving) = controllers
+    let (motion, speed, waving, layered) = controllers
         .single()
-        .map_or(("-", 0.0, false), |(c, w)| (c.motion.name(), c.speed, w));
+        .map_or(("-", 0.0, false, false), |(c, w, l)| {
+            (c.motion.name(), c.speed, w, l)
+        });
     let Ok((simulation, settings)) = ponchos.single() else {
         return;
     };
@@ -269,7 +348,7 @@ fn label(
     for mut text in &mut labels {
         text.0 = format!(
             "motion {motion} (1-5), {speed:.1} m/s\n\
-             poncho: {} particles, {} x {} XPBD, self-collision {} (S), wave {} (W)\n\
+             poncho: {} particles, {} x {} XPBD, self-collision {} (S), wave {} (W), shawl {} (L)\n\
              fixed step {:.2} ms: animation {:.2}, IK {:.2}, colliders {:.2}, cloth {:.2}\n\
              max strain {:.1}%, {} collider contacts, {} self-contacts",
             sim.state().len(),
@@ -277,6 +356,7 @@ fn label(
             settings.solver.iterations,
             settings.solver.self_collision.name(),
             if waving { "on" } else { "off" },
+            if layered { "under it" } else { "off" },
             ms(timings.total()),
             ms(timings.animation),
             ms(timings.inverse_kinematics),

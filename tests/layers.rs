@@ -302,3 +302,21 @@ fn a_shawl_under_the_poncho_stays_under_it_walking_and_jogging() {
         }
     }
 }
+
+/// Two flat sheets one above the other are not tangled; the same with the upper one tilted
+/// through the lower one are, and the solve says which.
+#[test]
+fn sheets_that_start_through_each_other_are_found_tangled() {
+    let sheet = |y: f32, tilt: f32| {
+        let mut grid = GridDesc::square(1.0, 8, Vec3::new(-0.5, y, -0.5));
+        grid.orientation = Quat::from_rotation_x(tilt);
+        grid.origin = Vec3::new(-0.5, y, -0.5);
+        ClothSolver::new(ClothModel::grid(&grid, 0.2).expect("a valid grid"))
+    };
+    // Tilted 0.3 rad from 15 cm below: through the lower sheet along its middle.
+    let (lower, above, through) = (sheet(0.0, 0.0), sheet(0.05, 0.0), sheet(-0.15, -0.3));
+    let apart = LayerSolver::new(&[&lower, &above]).unwrap();
+    assert!(apart.tangled_layers().is_empty());
+    let tangled = LayerSolver::new(&[&lower, &through]).unwrap();
+    assert_eq!(tangled.tangled_layers(), vec![(0, 1)]);
+}

@@ -99,56 +99,84 @@ pub(super) fn build_layers(
             }
         }
         claimed.extend(members.iter().map(|&m| (m, group)));
-        let Some(mut solve) = solve else {
-            commands.entity(group).insert(LayeredSolve::default());
-            continue;
+        // A new group's solve is built in this step already: its cloths are not stepped
+        // alone first.
+        let mut fresh = None;
+        let solve = match solve {
+            Some(solve) => solve.into_inner(),
+            None => fresh.insert(LayeredSolve::default()),
         };
-        let changed = layers.0 != solve.listed || members != solve.members;
-        if changed && !left_out.is_empty() {
+        update_solve(
+            group,
+            &layers.0,
+            solve,
+            (members, left_out),
+            (waiting, rebuilt),
+            &cloths,
+        );
+        if let Some(solve) = fresh {
+            commands.entity(group).insert(solve);
+        }
+    }
+}
+
+/// Updates the solve of the group `group` listing `listed` to its cloths built now
+/// (`members`, and what is `left_out`): built again when its cloths changed, once none is
+/// `waiting` to be built; warned about once per change.
+fn update_solve(
+    group: Entity,
+    listed: &[Entity],
+    solve: &mut LayeredSolve,
+    (members, left_out): (Vec<Entity>, Vec<String>),
+    (waiting, rebuilt): (bool, bool),
+    cloths: &Query<ListedCloth>,
+) {
+    let changed = listed != solve.listed || members != solve.members;
+    if changed && !left_out.is_empty() {
+        warn!(
+            "cloth layers {group}: {}; left out of the layers",
+            left_out.join("; ")
+        );
+    }
+    if changed {
+        solve.listed.clear();
+        solve.listed.extend_from_slice(listed);
+        solve.members.clone_from(&members);
+        solve.solver = None;
+    }
+    if waiting || !(changed || rebuilt || solve.solver.is_none()) {
+        return;
+    }
+    solve.solver = None;
+    if members.len() < 2 {
+        if changed {
             warn!(
-                "cloth layers {group}: {}; left out of the layers",
-                left_out.join("; ")
+                "cloth layers {group}: {} cloth(s) to layer; each steps alone",
+                members.len()
             );
         }
-        if changed {
-            solve.listed.clone_from(&layers.0);
-            solve.members.clone_from(&members);
-            solve.solver = None;
-        }
-        if waiting || !(changed || rebuilt || solve.solver.is_none()) {
-            continue;
-        }
-        solve.solver = None;
-        if members.len() < 2 {
-            if changed {
+        return;
+    }
+    let solvers: Vec<&ClothSolver> = members
+        .iter()
+        .filter_map(|&m| {
+            cloths
+                .get(m)
+                .ok()
+                .and_then(|(s, ..)| s.map(|s| &s.into_inner().sim))
+        })
+        .collect();
+    match LayerSolver::new(&solvers) {
+        Ok(solver) => {
+            for (a, b) in solver.tangled_layers() {
                 warn!(
-                    "cloth layers {group}: {} cloth(s) to layer; each steps alone",
-                    members.len()
+                    "cloth layers {group}: cloths {} and {} start through each other; \
+                     each particle is kept on the side it starts on",
+                    members[a], members[b]
                 );
             }
-            continue;
+            solve.solver = Some(solver);
         }
-        let solvers: Vec<&ClothSolver> = members
-            .iter()
-            .filter_map(|&m| {
-                cloths
-                    .get(m)
-                    .ok()
-                    .and_then(|(s, ..)| s.map(|s| &s.into_inner().sim))
-            })
-            .collect();
-        match LayerSolver::new(&solvers) {
-            Ok(solver) => {
-                for (a, b) in solver.tangled_layers() {
-                    warn!(
-                        "cloth layers {group}: cloths {} and {} start through each other; \
-                         each particle is kept on the side it starts on",
-                        members[a], members[b]
-                    );
-                }
-                solve.solver = Some(solver);
-            }
-            Err(err) => warn!("cloth layers {group}: {err}; each cloth steps alone"),
-        }
+        Err(err) => warn!("cloth layers {group}: {err}; each cloth steps alone"),
     }
 }

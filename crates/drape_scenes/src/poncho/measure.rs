@@ -87,7 +87,14 @@ fn measure_layers(world: &mut World, run: &mut PonchoRun) {
     }
 }
 
-pub(super) fn measure(app: &mut App, run: &mut PonchoRun) {
+impl PonchoRun {
+    /// Measures the scene after a step into these figures.
+    pub(super) fn measure(&mut self, app: &mut App) {
+        measure(app, self);
+    }
+}
+
+fn measure(app: &mut App, run: &mut PonchoRun) {
     use bevy_drape::collide::SolverShape;
     let settled = run.steps as f32 / 60.0 > SETTLE_SECONDS;
     let world = app.world_mut();

@@ -10,7 +10,6 @@ use bevy_drape::skeleton::plugin::{ClipAsset, ClipPlayer};
 
 #[cfg(doc)]
 use super::SETTLE_SECONDS;
-use super::measure::measure;
 use super::{Character, CharacterMotion, Poncho, PonchoScene, PonchoScenePlugin};
 
 /// The figures of one headless run of the scene (scene S3 of `docs/benchmarks.md`). Strain,
@@ -385,7 +384,7 @@ pub fn run_app(mut app: App, steps: u32) -> Result<PonchoRun, String> {
             ms(timings.cloth),
         ]);
         run.write_back_ms.push(ms(timings.write_back));
-        measure(&mut app, &mut run);
+        run.measure(&mut app);
         if let (Some(a), Some(b)) = (start, character_position(&mut app)) {
             run.travelled = run.travelled.max(a.distance(b));
         }
