@@ -68,15 +68,20 @@ pub(super) fn build_layers(
     mut groups: Query<(Entity, Ref<ClothLayers>, Option<&mut LayeredSolve>)>,
     cloths: Query<ListedCloth>,
     unlisted: Query<Entity, (With<LayeredSolve>, Without<ClothLayers>)>,
+    // (cloth, its group) so far, and one group's cloths built now: kept, so that a step
+    // allocates nothing while the layers are as they were.
+    mut claimed: Local<Vec<(Entity, Entity)>>,
+    mut members: Local<Vec<Entity>>,
 ) {
     // A group whose list was taken away: its cloths step alone again.
     for group in &unlisted {
         commands.entity(group).remove::<LayeredSolve>();
     }
-    let mut claimed: Vec<(Entity, Entity)> = Vec::new();
+    claimed.clear();
     for (group, layers, solve) in &mut groups {
         let mut left_out = Vec::new();
-        let (mut members, mut waiting, mut rebuilt) = (Vec::new(), false, false);
+        members.clear();
+        let (mut waiting, mut rebuilt) = (false, false);
         for &cloth in &layers.0 {
             if members.contains(&cloth) {
                 left_out.push(format!(
@@ -110,7 +115,7 @@ pub(super) fn build_layers(
             group,
             &layers.0,
             solve,
-            (members, left_out),
+            (&members, left_out),
             (waiting, rebuilt),
             &cloths,
         );
@@ -127,11 +132,11 @@ fn update_solve(
     group: Entity,
     listed: &[Entity],
     solve: &mut LayeredSolve,
-    (members, left_out): (Vec<Entity>, Vec<String>),
+    (members, left_out): (&[Entity], Vec<String>),
     (waiting, rebuilt): (bool, bool),
     cloths: &Query<ListedCloth>,
 ) {
-    let changed = listed != solve.listed || members != solve.members;
+    let changed = listed != solve.listed || members != solve.members.as_slice();
     if changed && !left_out.is_empty() {
         warn!(
             "cloth layers {group}: {}; left out of the layers",
@@ -141,7 +146,8 @@ fn update_solve(
     if changed {
         solve.listed.clear();
         solve.listed.extend_from_slice(listed);
-        solve.members.clone_from(&members);
+        solve.members.clear();
+        solve.members.extend_from_slice(members);
         solve.solver = None;
     }
     if waiting || !(changed || rebuilt || solve.solver.is_none()) {

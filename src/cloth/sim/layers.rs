@@ -8,7 +8,6 @@ use std::ops::Range;
 use bevy::math::{Vec3, Vec3A};
 
 use super::{ClothSolver, Join, Pin};
-use crate::cloth::crossings::{TwoPoses, count_crossings_between};
 use crate::cloth::model::ClothModel;
 use crate::cloth::rims::Rim;
 use crate::cloth::settings::{SelfCollisionMethod, SolverSettings};
@@ -82,21 +81,6 @@ impl LayerSolver {
         Ok(layers)
     }
 
-    /// How many cloths.
-    pub fn len(&self) -> usize {
-        self.ranges.len()
-    }
-
-    /// Whether there are no cloths (never, once built).
-    pub fn is_empty(&self) -> bool {
-        self.ranges.is_empty()
-    }
-
-    /// Where cloth `k`'s particles are in [`LayerSolver::solver`].
-    pub fn particles_of(&self, k: usize) -> Option<Range<usize>> {
-        self.ranges.get(k).cloned()
-    }
-
     /// The solve over all the cloths.
     pub fn solver(&self) -> &ClothSolver {
         &self.solver
@@ -109,7 +93,8 @@ impl LayerSolver {
     }
 
     /// Copies cloth `k`'s state, pins (with their targets) and dragged particle into the
-    /// solve. Call for every cloth before each step.
+    /// solve. Call for every cloth, in their order (`k` = 0, 1, ...), before each step: the
+    /// first starts the step's pins afresh, the last makes them the solve's.
     ///
     /// Errors: no cloth `k`, or a cloth whose particle count is not the one the solve was
     /// built with.
@@ -206,38 +191,6 @@ impl LayerSolver {
         };
         cloth.self_contacts = if k == 0 { self.solver.self_contacts } else { 0 };
         Ok(())
-    }
-
-    /// How many particles of one cloth went through a triangle of another, either way,
-    /// between `before` (the solve's positions at the start of a step) and now
-    /// ([`count_crossings_between`]).
-    pub fn crossings_between_layers(&self, before: &[Vec3A], thickness: f32) -> usize {
-        let after = &self.solver.state.positions;
-        if before.len() != after.len() {
-            return 0;
-        }
-        let triangles = &self.solver.model.triangles;
-        let part = |range: &Range<usize>| {
-            let own: Vec<[u32; 3]> = triangles
-                .iter()
-                .filter(|t| range.contains(&(t[0] as usize)))
-                .map(|t| t.map(|i| i - range.start as u32))
-                .collect();
-            let poses = TwoPoses {
-                before: &before[range.clone()],
-                after: &after[range.clone()],
-            };
-            (poses, own)
-        };
-        let mut count = 0;
-        for (a, range_a) in self.ranges.iter().enumerate() {
-            for range_b in &self.ranges[a + 1..] {
-                let ((pa, ta), (pb, tb)) = (part(range_a), part(range_b));
-                count += count_crossings_between(pa, pb, &tb, thickness)
-                    + count_crossings_between(pb, pa, &ta, thickness);
-            }
-        }
-        count
     }
 
     /// The pairs of cloths `(inner, outer)` (by their places) that pass through each other
