@@ -9,6 +9,10 @@
 //! projected like any inequality constraint: `lambda = -C / (w_q + sum_k w_k b_k^2)`, `q` moved
 //! by `w_q lambda s n` and `p_k` by `-w_k b_k lambda s n` (the momentum moved is
 //! `lambda s n (1 - sum_k b_k) = 0`). It acts only while the projection lies over the triangle.
+//! The cloth's rim is rounded by the thickness: a particle beyond a border edge of the
+//! triangle (an edge of no other triangle) is kept `h` from that edge, the particle and the
+//! edge's ends moved apart along the line between them, so that it cannot slip round the rim
+//! closer than that (within one step, a slip round the rim is a pass through the triangle).
 //!
 //! `s` is the side the particle is kept on, and it is not read off the current positions: a
 //! fold that brings a particle through a triangle within one substep would flip it. A pair
@@ -77,6 +81,9 @@ const THROUGH_SLACK: f32 = 0.25;
 #[derive(Clone, Debug)]
 pub struct TriangleSelfCollision {
     triangles: Vec<[u32; 3]>,
+    /// Per triangle, bit `k` set when its edge opposite corner `k` is on the cloth's border
+    /// (in no other triangle).
+    border: Vec<u8>,
     longest_edge: f32,
     /// [`GAP_PER_EDGE`] times the mean edge length.
     least_gap: f32,
@@ -119,8 +126,10 @@ impl TriangleSelfCollision {
             });
         // Each inner edge is counted twice, which leaves the mean as it is on a regular mesh.
         let least_gap = GAP_PER_EDGE * sum / count.max(1) as f32;
+        let border = border_edges(&triangles);
         Some(Self {
             triangles,
+            border,
             longest_edge,
             least_gap,
             thickness: 0.0,
@@ -274,7 +283,13 @@ impl TriangleSelfCollision {
             }
             // Over the triangle, or outside its edges by no more than it can come in this
             // substep (`-b_k` times the corner's altitude, at least `|cross| / longest`).
-            let outside = (2.0 * share * travel + 0.5 * h) * self.longest_edge / plane.length;
+            // A border edge holds particles beyond it too, up to the thickness.
+            let margin = if self.border[pair.triangle as usize] == 0 {
+                0.5 * h
+            } else {
+                1.5 * h
+            };
+            let outside = (2.0 * share * travel + margin) * self.longest_edge / plane.length;
             if pair.side * height < reach && bary.min_element() > -outside.max(OVER_SLACK) {
                 self.near.push(index as u32);
             }
@@ -312,6 +327,18 @@ impl TriangleSelfCollision {
             }
             let bary = plane.barycentric(x[q], height);
             if bary.min_element() < -OVER_SLACK {
+                let border = self.border[pair.triangle as usize];
+                let Some((correction, ends)) = round_border(x, w, q, corners, bary, border, h)
+                else {
+                    continue;
+                };
+                held += 1;
+                for (k, share) in [(q, 1.0)].into_iter().chain(ends) {
+                    x[k] += correction * (w[k] * share);
+                    if let Some((v, inv_h)) = velocities.as_mut() {
+                        v[k] += correction * (w[k] * share * *inv_h);
+                    }
+                }
                 continue;
             }
             let normal = plane.normal;
@@ -353,6 +380,73 @@ impl TriangleSelfCollision {
         }
         held
     }
+}
+
+/// Per triangle, the bits of its edges on the border (bit `k`: the edge opposite corner `k`).
+fn border_edges(triangles: &[[u32; 3]]) -> Vec<u8> {
+    let key = |i: u32, j: u32| (u64::from(i.min(j)) << 32) | u64::from(i.max(j));
+    let mut edges: Vec<u64> = triangles
+        .iter()
+        .flat_map(|&[a, b, c]| [key(b, c), key(c, a), key(a, b)])
+        .collect();
+    edges.sort_unstable();
+    let shared = |e: u64| {
+        let first = edges.partition_point(|&x| x < e);
+        edges.get(first + 1) == Some(&e)
+    };
+    triangles
+        .iter()
+        .map(|&[a, b, c]| {
+            [key(b, c), key(c, a), key(a, b)]
+                .iter()
+                .enumerate()
+                .filter(|&(_, &e)| !shared(e))
+                .fold(0u8, |bits, (k, _)| bits | (1 << k))
+        })
+        .collect()
+}
+
+/// Keeps particle `q`, beyond a border edge of its triangle (`corners`, `bary` the
+/// barycentric coordinates of its projection, `border` the triangle's border bits), at least
+/// `h` from that edge: the cloth's border is rounded by its thickness, so a particle cannot
+/// slip round it closer than that. The edge beyond which `q` lies farthest is the one held;
+/// Returns the correction of `q` per unit of its inverse mass, and the edge's ends with their
+/// shares of it (negative: they move the other way), for the caller to apply; `None` when `q`
+/// is beyond no border edge or far enough from it.
+fn round_border(
+    x: &mut [Vec3A],
+    w: &[f32],
+    q: usize,
+    corners: [usize; 3],
+    bary: Vec3A,
+    border: u8,
+    h: f32,
+) -> Option<(Vec3A, [(usize, f32); 2])> {
+    if border == 0 {
+        return None;
+    }
+    let bary = bary.to_array();
+    // The nearest of the border edges `q` lies beyond: where on it (`t` from its first end)
+    // and `q`'s offset from there.
+    let (i, j, t, away) = (0..3)
+        .filter(|&k| border & (1 << k) != 0 && bary[k] < -OVER_SLACK)
+        .filter_map(|k| {
+            let (i, j) = (corners[(k + 1) % 3], corners[(k + 2) % 3]);
+            let edge = x[j] - x[i];
+            let length_sq = edge.length_squared();
+            (length_sq > 1e-20).then(|| {
+                let t = ((x[q] - x[i]).dot(edge) / length_sq).clamp(0.0, 1.0);
+                (i, j, t, x[q] - (x[i] + edge * t))
+            })
+        })
+        .min_by(|p, r| p.3.length_squared().total_cmp(&r.3.length_squared()))?;
+    let distance = away.length();
+    let wsum = w[q] + w[i] * (1.0 - t) * (1.0 - t) + w[j] * t * t;
+    if distance >= h || distance <= 1e-9 || wsum <= 0.0 {
+        return None;
+    }
+    let correction = away * ((h - distance) / (distance * wsum));
+    Some((correction, [(i, t - 1.0), (j, -t)]))
 }
 
 /// A triangle's plane, for a particle's height over it and, only when needed, where over

@@ -259,3 +259,86 @@ fn random_sheets_pressed_together_stay_apart_and_keep_momentum() {
         assert!(x.iter().all(|p| p.is_finite()));
     }
 }
+
+#[test]
+fn a_grids_border_edges_are_its_rim() {
+    for n in [2u32, 3, 7] {
+        let model = ClothModel::grid(&GridDesc::square(1.0, n, Vec3::ZERO), 0.1).unwrap();
+        let border = border_edges(&model.triangles);
+        let count: u32 = border.iter().map(|b| b.count_ones()).sum();
+        assert_eq!(count, 4 * (n - 1), "n {n}");
+        // Each flagged edge joins two particles on the rim.
+        let on_rim = |i: u32| {
+            let (row, col) = (i / n, i % n);
+            row == 0 || col == 0 || row == n - 1 || col == n - 1
+        };
+        for (t, &bits) in model.triangles.iter().zip(&border) {
+            for k in (0..3).filter(|k| bits & (1 << k) != 0) {
+                assert!(on_rim(t[(k + 1) % 3]) && on_rim(t[(k + 2) % 3]));
+            }
+        }
+    }
+}
+
+#[test]
+fn a_particle_passing_a_border_edge_is_kept_the_thickness_from_it() {
+    // A random fixed triangle (alone: its edges are all on the border) and a particle driven
+    // past one of its edges on a random straight path through the triangle's plane that
+    // comes closer than the thickness: wherever it is beyond the edge, it ends each substep
+    // at least the thickness from it.
+    let mut rng = Rng(41);
+    let mut beyond_count = 0;
+    for round in 0..40 {
+        let mut corner = |z: f32| {
+            Vec3A::new(
+                rng.range(-0.02, 0.02),
+                rng.range(-0.005, 0.005),
+                z + rng.range(0.0, 0.01),
+            )
+        };
+        let (a, b, c) = (corner(0.0), corner(0.0), corner(0.03));
+        let rest: Vec<Vec3> = [a, b, c, Vec3A::ZERO].map(Vec3::from).to_vec();
+        let mut tc = TriangleSelfCollision::new(&rest, &[[0, 1, 2]]).unwrap();
+        let h = tc.least_gap.max(H);
+        // The path: past edge a-b on the side away from c, at a random offset in the plane,
+        // from 2 thicknesses above the plane to 2 below.
+        let edge = (b - a).normalize();
+        let normal = (b - a).cross(c - a).normalize();
+        let mut outward = edge.cross(normal);
+        if outward.dot(c - a) > 0.0 {
+            outward = -outward;
+        }
+        let mid = a.lerp(b, rng.range(0.3, 0.7));
+        let offset = rng.range(0.1, 0.6) * h;
+        let start = mid + outward * offset + normal * 2.0 * h;
+        let end = mid + outward * offset - normal * 2.0 * h;
+        let w = [0.0, 0.0, 0.0, 1.0];
+        let mut x = [a, b, c, start];
+        let dt = 1.0 / 60.0;
+        let v = [Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO, (end - start) / dt];
+        tc.find_pairs(&x, &v, dt, 0.0, H);
+        let substeps = 8;
+        for s in 1..=substeps {
+            let x_prev = x;
+            x[3] = start.lerp(end, s as f32 / substeps as f32);
+            tc.begin_substep(&x_prev, substeps);
+            for _ in 0..2 {
+                tc.project(&mut x, &x_prev, &w, 0.0, None);
+            }
+            let t = ((x[3] - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+            let from_edge = x[3].distance(a.lerp(b, t));
+            if (x[3] - a).dot(outward) > 0.0 {
+                beyond_count += 1;
+                assert!(
+                    from_edge >= 0.999 * h,
+                    "round {round}, substep {s}: {from_edge} from the edge, thickness {h}"
+                );
+            }
+        }
+        assert!(x.iter().all(|p| p.is_finite()));
+    }
+    assert!(
+        beyond_count > 100,
+        "{beyond_count} substeps beyond the edge"
+    );
+}
