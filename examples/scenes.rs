@@ -4,6 +4,7 @@
 //! cargo run --release --example scenes -- s1|s2|s3|drop --n 64 [--substeps 8] [--iterations 1]
 //!     [--method xpbd|pbd|mass-spring|hybrid|hybrid-long-range] [--stiffness 0.5] [--stretch-compliance 0]
 //!     [--shear-compliance inf] [--bend-compliance 500] [--no-tethers] [--dihedral] [--damping 0.5]
+//!     [--friction 0.5]
 //!     [--k-structural 1000] [--k-shear 300] [--k-bend 20] [--auto-substeps]
 //!     [--runs 3] [--frames 120] [--motion in-place|walk|jog|teleport|tour|sprint|hop|set-off|turn-around|zigzag|carried|stand]
 //!     [--inertia 1] [--speed-limit 1.5|none] [--neck-radius 0.1]
@@ -32,7 +33,8 @@
 //! (`LayeredDrop`; `--seed S` generates their gap, turn, shift and tilt), stepped as layers of
 //! one solve (`LayerSolver`) or, with `--apart`, each alone: the cost, the crossings between
 //! them (`crossings`) and of each through itself (`crossings_own`), the closest two particles
-//! of the two sheets at the end (`closest`, m) and the worst strain.
+//! of the two sheets at the end (`closest`, m), how far the upper sheet slid over the lower
+//! after landing on it (`slide`, m) and the worst strain.
 //!
 //! `s1 --threads N` runs S1 a second time with every step split over its thread and a helper
 //! task (`ClothSolver::step_with`, `with_helper`) and adds that run's ms per frame, its ratio
@@ -171,6 +173,7 @@ fn run() -> Result<(), String> {
             "--shear-compliance" => settings.shear_compliance = parse(&value()?)?,
             "--bend-compliance" => settings.bend_compliance = parse(&value()?)?,
             "--damping" => settings.damping = parse(&value()?)?,
+            "--friction" => settings.friction = parse(&value()?)?,
             "--stiffness" => stiffness = parse(&value()?)?,
             "--method" => method = value()?,
             "--k-structural" => settings.springs.structural.stiffness = parse(&value()?)?,
@@ -411,7 +414,7 @@ fn run() -> Result<(), String> {
                 |r| &r.frame_seconds,
             );
             println!(
-                "{{\"scene\":\"layers\",\"n\":{n},\"seed\":{},\"layered\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"crossings\":{},\"crossings_own\":{},\"closest\":{:.4},\"max_strain\":{:.6},\"finite\":{}}}",
+                "{{\"scene\":\"layers\",\"n\":{n},\"seed\":{},\"layered\":{},\"substeps\":{},\"iterations\":{},\"ms_per_frame\":{:.4},\"runs\":{runs},\"frames\":{frames},\"crossings\":{},\"crossings_own\":{},\"closest\":{:.4},\"slide\":{:.4},\"max_strain\":{:.6},\"finite\":{}}}",
                 seed.map_or("null".to_string(), |s| s.to_string()),
                 !apart,
                 settings.substeps,
@@ -420,6 +423,7 @@ fn run() -> Result<(), String> {
                 run.crossings_between,
                 run.crossings_own,
                 run.closest,
+                run.slide,
                 run.max_strain,
                 run.finite
             );

@@ -44,7 +44,7 @@
 //!    Measured on S3 (`cargo run --release --example scenes -- s3 --motion M`, default
 //!    8 x 2, against the earlier order in alternating runs): the median step's largest
 //!    strain 2.8-3.1% to 1.5-1.7%, the 99.9th percentile edge 3.2-3.9% to 1.6-1.9%, the worst
-//!    step 12-19% to 4.2-5.2%; at 16 x 4 (the study, `examples/speed_accuracy.rs`) 0.2-0.3%,
+//!    step 12-19% to 4.2-5.2%; at 16 x 4 (the study, `examples/speed_accuracy/`) 0.2-0.3%,
 //!    0.3-0.6% and 1.1-4.3%.
 //! 3. **Velocity**, after the solver's own velocity update, in the collider's frame
 //!    (`u = v - v_surface`, split into `u_n = n . u` and `u_t`):

@@ -31,9 +31,19 @@
 //! in the step, as the particle method finds it, at most twice the longest edge). The particles are
 //! sorted into a grid (`grid.rs`) and each triangle looks at the cells its grown box covers.
 //! At the start of each substep the candidates are narrowed to those that can come within `h`
-//! of their triangle in it, and those are projected in every iteration. Friction between the
-//! particle and the triangle's point under it is Coulomb friction on positions, as in the
-//! particle method.
+//! of their triangle in it, and those are projected in every iteration.
+//!
+//! Friction between the particle and the triangle is Coulomb friction on positions (Macklin
+//! et al. 2014), measured from an **anchor**: the point of the triangle, in its barycentric
+//! coordinates, where friction last held the particle. In every projection the particle's
+//! tangential offset from its anchor is undone if it is within `mu` times the normal push the
+//! pair has had in the substep so far (static), else shortened by that much (kinetic), and a
+//! pair that slid takes the point it started the next substep from as its anchor. A pair
+//! touching for the first time anchors where the particle began the substep. The anchor moves
+//! with the triangle and is kept from step to step while the two touch, so the small slides
+//! the cloth's own constraints give a resting particle after each projection do not add up,
+//! and a substep's pushes count together whichever iteration gave them. A pair that parts
+//! (more than [`PARTED`] times the thickness apart, or out of reach) forgets its anchor.
 
 use bevy::math::Vec3A;
 
@@ -51,6 +61,14 @@ pub struct VertexTriangle {
     /// `1` or `-1`: the side of the triangle's plane the particle is kept on, along the
     /// normal `(p_2 - p_1) x (p_3 - p_1)`.
     pub side: f32,
+    /// Where on the triangle friction holds the particle: the barycentric coordinates
+    /// `(b_2, b_3)` of its anchor, carried with the triangle (see the module docs); `None`
+    /// while the two are not touching.
+    pub anchor: Option<[f32; 2]>,
+    /// The normal push the pair's projections gave in the current substep, m.
+    pushed: f32,
+    /// Whether friction let the particle slide in the pair's last projection.
+    slid: bool,
 }
 
 impl VertexTriangle {
@@ -75,6 +93,11 @@ const OVER_SLACK: f32 = 1e-3;
 /// pass and still be taken to have gone through it: a particle passing the shared edge of two
 /// triangles goes through one or the other, and counts for both.
 const THROUGH_SLACK: f32 = 0.25;
+
+/// How far apart, in thicknesses, a particle and a triangle have parted: the pair forgets its
+/// friction anchor. A resting particle is pushed to the thickness and left a little over it by
+/// the constraints after the push: it still touches.
+const PARTED: f32 = 1.25;
 
 /// The triangle self-collision tables of one cloth: its triangles, the grid and the candidate
 /// pairs of the current step, with their sides. Built once; stepping reuses its memory.
@@ -227,6 +250,9 @@ impl TriangleSelfCollision {
                                 particle: q,
                                 triangle: index as u32,
                                 side: 0.0,
+                                anchor: None,
+                                pushed: 0.0,
+                                slid: false,
                             });
                         }
                     }
@@ -241,6 +267,7 @@ impl TriangleSelfCollision {
             while previous.next_if(|p| p.key() < key).is_some() {}
             if let Some(p) = previous.next_if(|p| p.key() == key) {
                 pair.side = p.side;
+                pair.anchor = p.anchor;
             } else {
                 let [a, b, c] = self.triangles[pair.triangle as usize].map(|i| x[i as usize]);
                 pair.side = side_of(x[pair.particle as usize], a, b, c).unwrap_or(1.0);
@@ -268,6 +295,10 @@ impl TriangleSelfCollision {
                 continue;
             };
             let height = plane.height(x_prev[q]);
+            pair.pushed = 0.0;
+            if std::mem::take(&mut pair.slid) {
+                pair.anchor = None;
+            }
             // The substep's share of the two's travel, twice (the particle and the corners
             // closing in), and half the thickness for the constraints' own moves.
             let corners = self.triangles[pair.triangle as usize].map(|i| self.travel[i as usize]);
@@ -275,10 +306,14 @@ impl TriangleSelfCollision {
             let reach = 1.5 * h + 2.0 * share * travel;
             if pair.side * height >= reach {
                 // On its side and out of reach: its side is the one it is on already.
+                pair.anchor = None;
                 continue;
             }
             let bary = plane.barycentric(x_prev[q], height);
             if bary.min_element() < -OVER_SLACK && height != 0.0 {
+                if pair.side != height.signum() {
+                    pair.anchor = None;
+                }
                 pair.side = height.signum();
             }
             // Over the triangle, or outside its edges by no more than it can come in this
@@ -323,6 +358,9 @@ impl TriangleSelfCollision {
             let height = plane.height(x[q]);
             let mut distance = pair.side * height;
             if distance >= h {
+                if distance >= PARTED * h {
+                    pair.anchor = None;
+                }
                 continue;
             }
             let bary = plane.barycentric(x[q], height);
@@ -345,6 +383,7 @@ impl TriangleSelfCollision {
             if distance < 0.0 && !went_through(pair.side, [q, a, b, c].map(|i| (x_prev[i], x[i]))) {
                 // Round the triangle's edge within the substep: held on the side it is on.
                 pair.side = -pair.side;
+                pair.anchor = None;
                 distance = -distance;
             }
             let side = pair.side;
@@ -362,10 +401,22 @@ impl TriangleSelfCollision {
             // The correction of the particle per unit of its inverse mass; the corners take
             // `-b_k` times it per unit of theirs.
             let mut correction = push * (penetration / wsum);
+            pair.pushed += penetration;
             if friction > 0.0 {
-                let under = |p: &[Vec3A]| p[a] * weights[0] + p[b] * weights[1] + p[c] * weights[2];
-                let relative = (x[q] - x_prev[q]) - (under(x) - under(x_prev));
-                correction -= friction_removed(relative, push, friction * penetration) / wsum;
+                // The anchor, or where the particle began the substep over the triangle.
+                let anchor = pair.anchor.or_else(|| {
+                    let plane = Plane::new(x_prev[a], x_prev[b], x_prev[c])?;
+                    let bary = plane.barycentric(x_prev[q], plane.height(x_prev[q]));
+                    bary.is_finite().then_some([bary.y, bary.z])
+                });
+                if let Some([u, v]) = anchor {
+                    let relative = x[q] - (x[a] * (1.0 - u - v) + x[b] * u + x[c] * v);
+                    let limit = friction * pair.pushed;
+                    let tangential = relative - push * push.dot(relative);
+                    pair.slid = tangential.length_squared() > limit * limit;
+                    pair.anchor = anchor;
+                    correction -= friction_removed(relative, push, limit) / wsum;
+                }
             }
             x[q] += correction * w[q];
             for (&k, &b) in corners.iter().zip(&weights) {

@@ -36,6 +36,8 @@ impl LayeredDrop {
     pub const HEIGHT: f32 = 0.9;
     /// Friction of the sphere and the ground.
     pub const FRICTION: f32 = 0.5;
+    /// Frames until both sheets have landed on the sphere (1 s).
+    pub const LANDED: u32 = 60;
 
     /// The example's drop: the upper sheet 5 cm above, turned 45 degrees.
     pub fn new(n: u32) -> Self {
@@ -144,7 +146,21 @@ impl LayeredDrop {
             lower.model().triangles.clone(),
             upper.model().triangles.clone(),
         );
-        for _ in 0..frames {
+        // The upper sheet's centroid relative to the lower's, once the two have landed.
+        let offset = |upper: &ClothSolver, lower: &ClothSolver| {
+            let centroid = |sim: &ClothSolver| {
+                let x = &sim.state().positions;
+                x.iter().copied().sum::<Vec3A>() / x.len().max(1) as f32
+            };
+            let d = centroid(upper) - centroid(lower);
+            Vec3A::new(d.x, 0.0, d.z)
+        };
+        let landed = Self::LANDED.min(frames / 2);
+        let mut at_landing = Vec3A::ZERO;
+        for frame in 0..frames {
+            if frame == landed {
+                at_landing = offset(&upper, &lower);
+            }
             let start = Instant::now();
             match &mut layers {
                 Some(layers) => {
@@ -187,6 +203,7 @@ impl LayeredDrop {
             crossings_own: own,
             max_strain: lower.strain().max.max(upper.strain().max),
             closest: closest_between(&upper, &lower),
+            slide: offset(&upper, &lower).distance(at_landing),
             finite,
         }
     }
@@ -222,6 +239,10 @@ pub struct LayeredDropRun {
     pub max_strain: f32,
     /// The closest any particle of the upper sheet is to one of the lower at the end, m.
     pub closest: f32,
+    /// How far the upper sheet slid over the lower after landing on it (from
+    /// [`LayeredDrop::LANDED`] frames, or half the run if it is shorter, to the end): the
+    /// horizontal move of its centroid relative to the lower's, m.
+    pub slide: f32,
     /// Whether every position stayed finite.
     pub finite: bool,
 }

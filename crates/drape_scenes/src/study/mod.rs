@@ -29,13 +29,17 @@
 //! - [`spline_errors`]: interpolation error against key spacing for both tangent formulas.
 //! - [`main_scene_points`]: the main scene's (S3) per-step strain against cost for each budget
 //!   and motion.
+//! - [`crossings_against_cost`]: the generated sheet drops' crossings through themselves
+//!   against the cost of a frame, for each self-collision method and substep count.
 
 use std::time::Instant;
 
 mod main_scene;
+mod self_collision;
 mod skeleton;
 
 pub use main_scene::{MainSceneBudget, MainScenePoint, main_scene_budgets, main_scene_points};
+pub use self_collision::{CROSSINGS_SUBSTEPS, CrossingsPoint, crossings_against_cost};
 
 pub use skeleton::{
     FabrikCurve, SplineRow, fabrik_residuals, ik_chains, key_times, random_pose, smooth_motion,
