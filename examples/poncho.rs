@@ -5,6 +5,7 @@
 //!
 //! ```text
 //! cargo run --features egui --example poncho
+//! cargo run --features egui --example poncho -- --shawl   # with the shawl under the poncho
 //! ```
 //!
 //! `spawn_character_and_poncho` below spawns both with the crate's API; the walking, jogging
@@ -83,6 +84,7 @@ fn main() {
     ))
     .insert_resource(Time::<Fixed>::from_hz(60.0))
     .insert_resource(Wind::default())
+    .insert_resource(ShawlAtStart(std::env::args().any(|a| a == "--shawl")))
     .add_systems(Startup, (setup, spawn_character_and_poncho))
     .add_systems(
         Update,
@@ -198,10 +200,16 @@ fn poncho_settings() -> ClothSettings {
 /// The poncho and the shawl.
 type Garments<'w, 's> = Query<'w, 's, Entity, Or<(With<Poncho>, With<Shawl>)>>;
 
+/// `--shawl`: the scene starts with the shawl under the poncho, as if L was pressed.
+#[derive(Resource)]
+struct ShawlAtStart(bool);
+
 /// L: a shawl under the poncho, or none. Both garments are dropped again from above the
 /// character, the shawl first, and stepped as layers of one solve (`ClothLayers`).
+#[allow(clippy::too_many_arguments)]
 fn toggle_shawl(
     input: Res<ButtonInput<KeyCode>>,
+    mut at_start: ResMut<ShawlAtStart>,
     mut commands: Commands,
     characters: Query<(Entity, &Transform, Has<ClothLayers>), With<Character>>,
     garments: Garments,
@@ -209,7 +217,7 @@ fn toggle_shawl(
     mut materials: ResMut<Assets<StandardMaterial>>,
     assets: Res<AssetServer>,
 ) {
-    if !input.just_pressed(KeyCode::KeyL) {
+    if !(input.just_pressed(KeyCode::KeyL) || std::mem::take(&mut at_start.0)) {
         return;
     }
     let Ok((character, transform, layered)) = characters.single() else {

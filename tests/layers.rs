@@ -319,3 +319,27 @@ fn sheets_that_start_through_each_other_are_found_tangled() {
     let tangled = LayerSolver::new(&[&lower, &through]).unwrap();
     assert_eq!(tangled.tangled_layers(), vec![(0, 1)]);
 }
+
+/// The upper of two sheets laid on a sphere stays where it landed on the lower one for 20 s
+/// with the default friction between the layers (its friction anchored on the lower sheet's
+/// triangles: measured from the substep's start, the edges' small slides added up and it
+/// crept off the ball), and slides off without friction.
+#[test]
+fn a_sheet_resting_on_another_stays_put_with_friction_and_slides_off_without() {
+    let scene = LayeredDrop::new(12);
+    let settings = LayeredDrop::settings();
+    let held = scene.run(&settings, 1200, true);
+    println!("friction {}: slid {} m", settings.friction, held.slide);
+    assert!(held.finite && held.crossings_between == 0);
+    assert!(held.slide < 0.01, "slid {} m with friction", held.slide);
+    let slippery = SolverSettings {
+        friction: 0.0,
+        ..settings
+    };
+    let slid = scene.run(&slippery, 1200, true);
+    assert!(
+        slid.slide > 0.1,
+        "slid only {} m without friction",
+        slid.slide
+    );
+}
