@@ -36,14 +36,18 @@
 //! Friction between the particle and the triangle is Coulomb friction on positions (Macklin
 //! et al. 2014), measured from an **anchor**: the point of the triangle, in its barycentric
 //! coordinates, where friction last held the particle. In every projection the particle's
-//! tangential offset from its anchor is undone if it is within `mu` times the normal push the
-//! pair has had in the substep so far (static), else shortened by that much (kinetic), and a
-//! pair that slid takes the point it started the next substep from as its anchor. A pair
-//! touching for the first time anchors where the particle began the substep. The anchor moves
-//! with the triangle and is kept from step to step while the two touch, so the small slides
-//! the cloth's own constraints give a resting particle after each projection do not add up,
-//! and a substep's pushes count together whichever iteration gave them. A pair that parts
-//! (more than [`PARTED`] times the thickness apart, or out of reach) forgets its anchor.
+//! tangential offset from its anchor is undone if it is within what the substep's friction
+//! has left (`mu` times the normal push the pair has had in the substep so far, less what
+//! friction took already in it: static), else shortened by that much (kinetic), and a pair
+//! that slid takes the point it starts the next substep from as its anchor. A pair touching
+//! for the first time anchors where the particle began the substep. The anchor moves with the
+//! triangle and is kept from step to step while the two touch (a particle near a shared edge
+//! keeps its anchor on both triangles: forgetting it whenever the particle's projection left
+//! a triangle let a sheet resting on another creep off it), so the small slides the cloth's
+//! own constraints give a resting particle after each projection do not add up, and a
+//! substep's pushes count together whichever iteration gave them. A pair that parts (more
+//! than [`PARTED`] times the thickness apart, or out of reach), changes side or whose
+//! triangle is degenerate forgets its anchor.
 
 use bevy::math::Vec3A;
 
@@ -63,10 +67,12 @@ pub struct VertexTriangle {
     pub side: f32,
     /// Where on the triangle friction holds the particle: the barycentric coordinates
     /// `(b_2, b_3)` of its anchor, carried with the triangle (see the module docs); `None`
-    /// while the two are not touching.
+    /// once the two have parted, after a slide, and before their first touch.
     pub anchor: Option<[f32; 2]>,
     /// The normal push the pair's projections gave in the current substep, m.
     pushed: f32,
+    /// The tangential motion friction has taken away in the current substep, m.
+    spent: f32,
     /// Whether friction let the particle slide in the pair's last projection.
     slid: bool,
 }
@@ -117,7 +123,7 @@ pub struct TriangleSelfCollision {
     cell_of: Vec<u32>,
     /// The current step's candidates, sorted by particle, then triangle.
     candidates: Vec<VertexTriangle>,
-    /// The step before's, to carry the sides over.
+    /// The step before's, to carry the sides and the friction anchors over.
     previous: Vec<VertexTriangle>,
     /// The candidates that can come within the thickness in the current substep (indices
     /// into `candidates`).
@@ -252,6 +258,7 @@ impl TriangleSelfCollision {
                                 side: 0.0,
                                 anchor: None,
                                 pushed: 0.0,
+                                spent: 0.0,
                                 slid: false,
                             });
                         }
@@ -260,7 +267,8 @@ impl TriangleSelfCollision {
             }
         }
         self.candidates.sort_unstable_by_key(VertexTriangle::key);
-        // The sides: carried over from the step before, else the side the particle is on now.
+        // The sides and anchors: carried over from the step before, else the side the particle
+        // is on now (and no anchor).
         let mut previous = self.previous.iter().peekable();
         for pair in &mut self.candidates {
             let key = pair.key();
@@ -268,6 +276,7 @@ impl TriangleSelfCollision {
             if let Some(p) = previous.next_if(|p| p.key() == key) {
                 pair.side = p.side;
                 pair.anchor = p.anchor;
+                pair.slid = p.slid;
             } else {
                 let [a, b, c] = self.triangles[pair.triangle as usize].map(|i| x[i as usize]);
                 pair.side = side_of(x[pair.particle as usize], a, b, c).unwrap_or(1.0);
@@ -291,14 +300,16 @@ impl TriangleSelfCollision {
         }));
         for (index, pair) in self.candidates.iter_mut().enumerate() {
             let q = pair.particle as usize;
-            let Some(plane) = &self.planes[pair.triangle as usize] else {
-                continue;
-            };
-            let height = plane.height(x_prev[q]);
             pair.pushed = 0.0;
+            pair.spent = 0.0;
             if std::mem::take(&mut pair.slid) {
                 pair.anchor = None;
             }
+            let Some(plane) = &self.planes[pair.triangle as usize] else {
+                pair.anchor = None;
+                continue;
+            };
+            let height = plane.height(x_prev[q]);
             // The substep's share of the two's travel, twice (the particle and the corners
             // closing in), and half the thickness for the constraints' own moves.
             let corners = self.triangles[pair.triangle as usize].map(|i| self.travel[i as usize]);
@@ -334,7 +345,8 @@ impl TriangleSelfCollision {
     /// Projects the substep's pairs (see the module docs): every particle over its triangle
     /// and closer than the thickness on its side (or on the other side) is moved out, the
     /// particle and the triangle's corners in the ratio of their inverse masses `w`, with
-    /// Coulomb friction on the relative motion since the substep began (`x_prev`). With
+    /// Coulomb friction on the particle's offset from its anchor on the triangle (or, at a
+    /// first touch, on the relative motion since the substep began, `x_prev`). With
     /// `velocities`, each correction `dx` also adds `dx * inv_h` to the velocity (for solvers
     /// that do not derive velocities from positions). Returns how many pairs were held.
     pub fn project(
@@ -411,11 +423,14 @@ impl TriangleSelfCollision {
                 });
                 if let Some([u, v]) = anchor {
                     let relative = x[q] - (x[a] * (1.0 - u - v) + x[b] * u + x[c] * v);
-                    let limit = friction * pair.pushed;
-                    let tangential = relative - push * push.dot(relative);
-                    pair.slid = tangential.length_squared() > limit * limit;
+                    // What the substep's pushes allow, less what friction took already.
+                    let limit = (friction * pair.pushed - pair.spent).max(0.0);
+                    let removed = friction_removed(relative, push, limit);
+                    let slip = relative - push * push.dot(relative);
+                    pair.slid = slip.length_squared() > limit * limit;
+                    pair.spent += removed.length();
                     pair.anchor = anchor;
-                    correction -= friction_removed(relative, push, limit) / wsum;
+                    correction -= removed / wsum;
                 }
             }
             x[q] += correction * w[q];
