@@ -415,9 +415,10 @@ impl TriangleSelfCollision {
             let mut correction = push * (penetration / wsum);
             pair.pushed += penetration;
             if friction > 0.0 {
-                // The anchor, or where the particle began the substep over the triangle.
+                // The anchor, or where the particle began the substep over the triangle (on
+                // the triangle's plane at the substep's start, made in `begin_substep`).
                 let anchor = pair.anchor.or_else(|| {
-                    let plane = Plane::new(x_prev[a], x_prev[b], x_prev[c])?;
+                    let plane = self.planes[pair.triangle as usize].as_ref()?;
                     let bary = plane.barycentric(x_prev[q], plane.height(x_prev[q]));
                     bary.is_finite().then_some([bary.y, bary.z])
                 });
