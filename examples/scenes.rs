@@ -187,7 +187,7 @@ fn run() -> Result<(), String> {
             "--exact-edges" => {
                 settings.exact_edges = Some(ExactEdges {
                     cg_iterations: parse(&value()?)?,
-                    ..ExactEdges::default()
+                    ..settings.exact_edges.unwrap_or_default()
                 });
             }
             "--no-exact-edges" => settings.exact_edges = None,

@@ -256,6 +256,7 @@ fn bad_input_gives_typed_errors_and_warnings() {
         exact_edges: Some(bevy_drape::cloth::ExactEdges {
             newton_steps: 1,
             cg_iterations: 0,
+            ..Default::default()
         }),
         ..Default::default()
     };
@@ -269,6 +270,25 @@ fn bad_input_gives_typed_errors_and_warnings() {
     let before = sim.state().positions.clone();
     assert!(sim.step(&no_solve, Vec3::NEG_Y, 1.0 / 60.0).is_err());
     assert_eq!(sim.state().positions, before);
+    // So is a closing tolerance that is not a finite distance of at least zero.
+    for tolerance in [f32::NAN, f32::INFINITY, -0.001] {
+        let bad_tolerance = SolverSettings {
+            exact_edges: Some(bevy_drape::cloth::ExactEdges {
+                closing_tolerance: tolerance,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        assert!(matches!(
+            bad_tolerance.validate(),
+            Err(ClothError::InvalidSetting {
+                name: "exact_edges.closing_tolerance",
+                ..
+            })
+        ));
+        assert!(sim.step(&bad_tolerance, Vec3::NEG_Y, 1.0 / 60.0).is_err());
+        assert_eq!(sim.state().positions, before);
+    }
 }
 
 #[test]

@@ -40,6 +40,8 @@ fn unusual() -> ClothSettings {
     settings.solver.exact_edges = Some(bevy_drape::cloth::ExactEdges {
         newton_steps: 2,
         cg_iterations: 30,
+        closing_rounds: 2,
+        closing_tolerance: 0.002,
     });
     settings
 }

@@ -31,6 +31,10 @@ const LINEAR_RANGE: f32 = 0.25;
 /// of its rest length.
 const TOLERANCE: f32 = 1e-4;
 
+/// How much lighter (the inverse mass's factor) a particle the closing pass pushed is in the
+/// solve that follows that push ([`FastProjection::project_after_push`]).
+const PUSHED_WEIGHT: f32 = 0.1;
+
 /// Scratch memory of the projection, reused every call.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct FastProjection {
@@ -53,6 +57,10 @@ pub(crate) struct FastProjection {
     /// come (the same sum, bit for bit, as adding edge by edge into every particle).
     incident_start: Vec<u32>,
     incident: Vec<(u32, f32)>,
+    /// The positions before a closing pass ([`FastProjection::remember`]).
+    before_push: Vec<Vec3A>,
+    /// The inverse masses of [`FastProjection::project_after_push`].
+    pushed_weights: Vec<f32>,
 }
 
 impl FastProjection {
@@ -98,7 +106,37 @@ impl FastProjection {
             tolerance,
             incident_start,
             incident,
+            before_push: Vec::with_capacity(particles),
+            pushed_weights: Vec::with_capacity(particles),
         }
+    }
+
+    /// Keeps `x` for [`FastProjection::project_after_push`]: the positions before a pass that
+    /// may push some particles.
+    pub(crate) fn remember(&mut self, x: &[Vec3A]) {
+        self.before_push.clear();
+        self.before_push.extend_from_slice(x);
+    }
+
+    /// [`FastProjection::project`] with every particle that moved since
+    /// [`FastProjection::remember`] [`PUSHED_WEIGHT`] times as light: the edges are met again
+    /// mostly by the particles around the pushed ones, which keeps the pushed ones where the
+    /// push put them.
+    pub(crate) fn project_after_push(&mut self, x: &mut [Vec3A], w: &[f32], newton: u32, cg: u32) {
+        let mut weights = std::mem::take(&mut self.pushed_weights);
+        weights.clear();
+        weights.extend(
+            w.iter()
+                .zip(x.iter())
+                .zip(&self.before_push)
+                .map(
+                    |((&w, x), before)| {
+                        if before != x { w * PUSHED_WEIGHT } else { w }
+                    },
+                ),
+        );
+        self.project(x, &weights, newton, cg);
+        self.pushed_weights = weights;
     }
 
     /// The multipliers the next solve starts from (see the module docs).
@@ -398,6 +436,65 @@ mod tests {
                     "case {case}: the centre moved"
                 );
             }
+        }
+    }
+
+    /// Random grids at rest with a few particles pushed out of the sheet (as the closing pass
+    /// pushes particles out of a collider): the solve after the push meets the edges as the
+    /// plain solve does, and leaves the pushed particles less than 40% as far from where
+    /// the push put them as the plain solve does: 18-35% on these grids (they are ten times
+    /// as heavy in it; as heavy as the rest, 100%).
+    #[test]
+    fn the_solve_after_a_push_keeps_the_pushed_particles_where_they_were_pushed() {
+        let mut rng = Rng(0x2c1b_3c6d_9e37_79b9);
+        for case in 0..8 {
+            let n = 4 + (rng.uniform() * 12.0) as u32;
+            let grid = GridDesc::square(0.3 + rng.uniform(), n, Vec3::ZERO);
+            let model = ClothModel::grid(&grid, 0.2).unwrap();
+            let structural = || {
+                model
+                    .edges
+                    .iter()
+                    .filter(|e| e.kind == EdgeKind::Structural)
+            };
+            let edge = structural().map(|e| e.rest_length).fold(f32::MAX, f32::min);
+            let mut pushed: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
+            let w = vec![1.0f32; pushed.len()];
+            let mut fp = FastProjection::new(structural(), pushed.len());
+            fp.remember(&pushed);
+            let mut chosen: Vec<usize> = (0..1 + case % 3)
+                .map(|_| (rng.uniform() * pushed.len() as f32) as usize % pushed.len())
+                .collect();
+            chosen.sort_unstable();
+            chosen.dedup();
+            for &i in &chosen {
+                pushed[i].y += edge * (0.2 + 0.4 * rng.uniform());
+            }
+            let mut plain = pushed.clone();
+            FastProjection::new(structural(), plain.len()).project(&mut plain, &w, 6, 200);
+            let mut after = pushed.clone();
+            fp.project_after_push(&mut after, &w, 6, 200);
+            let worst = |x: &[Vec3A]| {
+                structural()
+                    .map(|e| {
+                        let [a, b] = e.particles.map(|i| i as usize);
+                        ((x[a] - x[b]).length() - e.rest_length).abs() / e.rest_length
+                    })
+                    .fold(0.0f32, f32::max)
+            };
+            assert!(worst(&plain) < 1e-3 && worst(&after) < 1e-3, "case {case}");
+            let back = |x: &[Vec3A]| {
+                chosen
+                    .iter()
+                    .map(|&i| x[i].distance(pushed[i]))
+                    .fold(0.0f32, f32::max)
+            };
+            assert!(
+                back(&after) < 0.4 * back(&plain),
+                "case {case}: {} against {}",
+                back(&after),
+                back(&plain)
+            );
         }
     }
 

@@ -247,6 +247,23 @@ pub struct ExactEdges {
     /// multipliers and stops early once every edge's linearised residual is within 0.01% of
     /// its rest length. Default: `20`.
     pub cg_iterations: u32,
+    /// How many times more the edges are solved in a substep after the closing pass (which
+    /// moves what the solve left inside a collider onto its surface) pushed a particle
+    /// farther than [`ExactEdges::closing_tolerance`]: each time with the pushed particles
+    /// ten times as heavy, so that the cloth around them gives way rather than they go back
+    /// in, and then the closing pass again. A fold pinched between a swinging hand and the
+    /// thigh is what needs it: 4 rounds take the worst step of the main scene's tour over
+    /// 100,000 steps from 13.9% to 1.0% strain at no measurable cost. The rounds move the
+    /// cloth without friction, though: a sheet resting on another over a ball slid 1.9 cm
+    /// in 20 s with them, 0.2 cm without. `0`: solved once. Default: `0` (also when a
+    /// settings file leaves it out).
+    #[reflect(default = "ExactEdges::default_closing_rounds")]
+    pub closing_rounds: u32,
+    /// The push of the closing pass, metres, beyond which the edges are solved again (see
+    /// [`ExactEdges::closing_rounds`]). Default: `0.001` (also when a settings file leaves it
+    /// out).
+    #[reflect(default = "ExactEdges::default_closing_tolerance")]
+    pub closing_tolerance: f32,
 }
 
 impl Default for ExactEdges {
@@ -254,7 +271,21 @@ impl Default for ExactEdges {
         Self {
             newton_steps: 1,
             cg_iterations: 20,
+            closing_rounds: Self::default_closing_rounds(),
+            closing_tolerance: Self::default_closing_tolerance(),
         }
+    }
+}
+
+impl ExactEdges {
+    /// The default [`ExactEdges::closing_rounds`].
+    pub fn default_closing_rounds() -> u32 {
+        0
+    }
+
+    /// The default [`ExactEdges::closing_tolerance`], metres.
+    pub fn default_closing_tolerance() -> f32 {
+        0.001
     }
 }
 
@@ -489,6 +520,15 @@ impl SolverSettings {
                 name: "exact_edges",
                 value: exact.newton_steps.min(exact.cg_iterations) as f32,
                 reason: "newton_steps and cg_iterations at least 1",
+            });
+        }
+        if let Some(exact) = self.exact_edges
+            && !(exact.closing_tolerance.is_finite() && exact.closing_tolerance >= 0.0)
+        {
+            return Err(ClothError::InvalidSetting {
+                name: "exact_edges.closing_tolerance",
+                value: exact.closing_tolerance,
+                reason: "finite and >= 0",
             });
         }
         if let Some(adaptive) = self.adaptive {

@@ -280,6 +280,7 @@ impl ContactScratch {
     /// `x_prev` are the positions at the start of the substep: a particle whose move since
     /// then, relative to a triangle mesh, crossed one of its triangles is put back on the
     /// side it came from ([`SolverShape::swept_signed_distance`](super::SolverShape)).
+    /// Returns the deepest push out of a collider, metres (friction's moves not counted).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn project(
         &mut self,
@@ -290,7 +291,8 @@ impl ContactScratch {
         w: &[f32],
         h_a: Vec3A,
         pass: ContactPass,
-    ) {
+    ) -> f32 {
+        let mut deepest = 0.0f32;
         let friction_step = match pass {
             ContactPass::Iteration { friction_step } => friction_step,
             ContactPass::Closing => None,
@@ -331,6 +333,7 @@ impl ContactScratch {
                 }
                 let n = pose.rotation * n_local;
                 let depth = reach - d;
+                deepest = deepest.max(depth);
                 x[i] += n * depth;
                 let contact = &mut self.contacts[i];
                 let mut normal_motion = depth;
@@ -394,6 +397,7 @@ impl ContactScratch {
                 }
             }
         }
+        deepest
     }
 
     /// The velocity response (step 3 of the [module docs](self)); `bounce_threshold` is the

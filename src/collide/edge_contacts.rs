@@ -219,7 +219,8 @@ impl EdgeContacts {
     }
 
     /// Projects every candidate (see the [module docs](self)) to `reach` beyond the surface,
-    /// with the colliders' cores of the current substep.
+    /// with the colliders' cores of the current substep. Returns the farthest it moved a
+    /// particle, metres.
     pub(crate) fn project(
         &mut self,
         colliders: &[SolverCollider],
@@ -227,7 +228,8 @@ impl EdgeContacts {
         x_prev: &[Vec3A],
         w: &[f32],
         reach: impl Fn(&SolverCollider) -> f32,
-    ) {
+    ) -> f32 {
+        let mut farthest = 0.0f32;
         for c in &self.candidates {
             let k = c.collider as usize;
             let [start, core] = self.cores[k];
@@ -268,7 +270,9 @@ impl EdgeContacts {
             let shift = n * (depth / denominator);
             x[a] += shift * (wa * ta);
             x[b] += shift * (wb * tb);
+            farthest = farthest.max(shift.length() * (wa * ta).max(wb * tb));
         }
+        farthest
     }
 }
 
