@@ -377,6 +377,14 @@ mod tests {
     use crate::rng::Rng;
     use bevy::math::{Quat, UVec2, Vec2, Vec3};
 
+    /// The model's structural edges, the ones a projection is made of.
+    fn structural_edges(model: &ClothModel) -> impl Iterator<Item = &Edge> + Clone {
+        model
+            .edges
+            .iter()
+            .filter(|e| e.kind == EdgeKind::Structural)
+    }
+
     /// Random grids, stretched and jittered at random, one corner pinned or none: a few steps
     /// bring every edge to its rest length, and with nothing pinned the centre of mass stays.
     #[test]
@@ -409,18 +417,9 @@ mod tests {
             }
             let before: Vec3A = x.iter().copied().sum::<Vec3A>();
             let pin = x[0];
-            let mut fp = FastProjection::new(
-                model
-                    .edges
-                    .iter()
-                    .filter(|e| e.kind == EdgeKind::Structural),
-                x.len(),
-            );
+            let mut fp = FastProjection::new(structural_edges(&model), x.len());
             fp.project(&mut x, &w, 6, 200);
-            let worst = model
-                .edges
-                .iter()
-                .filter(|e| e.kind == EdgeKind::Structural)
+            let worst = structural_edges(&model)
                 .map(|e| {
                     let [a, b] = e.particles.map(|i| i as usize);
                     ((x[a] - x[b]).length() - e.rest_length).abs() / e.rest_length
@@ -451,12 +450,7 @@ mod tests {
             let n = 4 + (rng.uniform() * 12.0) as u32;
             let grid = GridDesc::square(0.3 + rng.uniform(), n, Vec3::ZERO);
             let model = ClothModel::grid(&grid, 0.2).unwrap();
-            let structural = || {
-                model
-                    .edges
-                    .iter()
-                    .filter(|e| e.kind == EdgeKind::Structural)
-            };
+            let structural = || structural_edges(&model);
             let edge = structural().map(|e| e.rest_length).fold(f32::MAX, f32::min);
             let mut pushed: Vec<Vec3A> = model.rest_positions.iter().map(|&p| p.into()).collect();
             let w = vec![1.0f32; pushed.len()];
@@ -513,12 +507,7 @@ mod tests {
                 origin: Vec3::ZERO,
             };
             let model = ClothModel::grid(&grid, 0.2).unwrap();
-            let structural = || {
-                model
-                    .edges
-                    .iter()
-                    .filter(|e| e.kind == EdgeKind::Structural)
-            };
+            let structural = || structural_edges(&model);
             let stretched = |rng: &mut Rng| -> Vec<Vec3A> {
                 let stretch = 1.0 + 0.03 * rng.uniform();
                 model

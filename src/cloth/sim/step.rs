@@ -25,21 +25,25 @@
 //!    edges are solved exactly (`fast_projection.rs`); then the closing collider pass moves
 //!    anything left inside a collider onto its surface (the particles, the mesh vertices
 //!    against the triangles to half their reach, then the edges against thin colliders);
-//!    while it pushes a particle farther than [`ExactEdges::closing_tolerance`](crate::cloth::ExactEdges::closing_tolerance), the edges are
-//!    solved again with the pushed particles made heavy, and closed again (at most
-//!    [`ExactEdges::closing_rounds`](crate::cloth::ExactEdges::closing_rounds) times). Bending in every iteration rather than the first alone
-//!    costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and holds it
-//!    tighter at equal cost (0.74% max strain, against 0.82% for the first iteration alone
-//!    at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8% whatever the
-//!    budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%, 0.43%, 0.50%). Bending in
-//!    the last iteration alone costs what the first did and holds S1 as well, but leaves S2 with S1's cloth at N = 64 stretched 75% (bending after the edges
+//!    while it pushes a particle farther than [`ExactEdges::closing_tolerance`], the edges
+//!    are solved again with the pushed particles made heavy, and closed again (at most
+//!    [`ExactEdges::closing_rounds`] times). Bending in every iteration rather than the
+//!    first alone costs 28% more per frame on S1 at N = 64, 8 x 2 (1.38 to 1.77 ms), and
+//!    holds it tighter at equal cost (0.74% max strain, against 0.82% for the first
+//!    iteration alone at 10 x 2, 1.92 ms); the first alone also left a floor of 0.6 to 0.8%
+//!    whatever the budget (12 x 2 0.61%, 16 x 2 0.71%, 32 x 2 0.78%; now 0.49%, 0.43%,
+//!    0.50%). Bending in the last iteration alone costs what the first did and holds S1 as
+//!    well, but leaves S2 with S1's cloth at N = 64 stretched 75% (bending after the edges
 //!    pushes the sheet into the sphere every substep).
 //! 3. velocities: XPBD and PBD `v = (x - x_prev) / h + h/2 a`; the hybrid
 //!    `v = (x - x_prev) / h` (both computed from the prediction, so that an unconstrained
-//!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its self-collision and
-//!    contacts correct them directly).
+//!    particle's velocity carries no rounding); mass-spring keeps the integrated ones (its
+//!    self-collision and contacts correct them directly).
 //! 4. contacts: restitution relative to each collider's surface, and for mass-spring Coulomb
 //!    friction on the velocities (`collide/contact.rs`); then damping.
+//!
+//! [`ExactEdges::closing_tolerance`]: crate::cloth::ExactEdges::closing_tolerance
+//! [`ExactEdges::closing_rounds`]: crate::cloth::ExactEdges::closing_rounds
 
 use bevy::math::{Vec3, Vec3A, Vec4};
 
